@@ -1,0 +1,28 @@
+"""The sensor assembly: mount, membrane and, per whisker, rod, coil and magnet, all in place."""
+
+from __future__ import annotations
+
+import cadquery as cq
+
+from whisker.design import Design
+
+from . import reference
+
+
+def sensor_assembly(d: Design, mount: cq.Shape, membrane: cq.Shape, tilt_deg: float = 0.0) -> cq.Assembly:
+    """Every part where it sits in the finished sensor (whiskers tilted by tilt_deg, retraction +)."""
+    assy = cq.Assembly(name="whisker_sensor")
+    assy.add(mount, name="mount", color=cq.Color(0.55, 0.45, 0.85))
+    assy.add(membrane, name="membrane", color=cq.Color(0.6, 0.6, 0.65))
+    for i, a in enumerate(d.whisker_angles_deg):
+        assy.add(reference.rod(d, a, tilt_deg), name=f"rod_{i}", color=cq.Color(0.1, 0.1, 0.1))
+        assy.add(reference.coil(d, a, tilt_deg), name=f"coil_{i}", color=cq.Color(0.72, 0.45, 0.2))
+        assy.add(reference.magnet(d, a), name=f"magnet_{i}", color=cq.Color(0.75, 0.75, 0.78))
+    return assy
+
+
+def export_step(assy: cq.Assembly, path: str) -> None:
+    from cadquery.occ_impl.exporters.assembly import exportAssembly
+
+    if not exportAssembly(assy, path):
+        raise RuntimeError(f"STEP export of the assembly failed: {path}")

@@ -1,0 +1,167 @@
+"""`whisker cad build`: every part as STL and STEP, checked, with a manifest.
+
+Pipeline: design -> solids -> solid checks -> STL/STEP into a staging folder -> mesh checks on the
+written STL files -> manifest. Only a design that passes every check is published into the output
+folder (one atomic rename per file, manifest last); a refused design raises :class:`DesignRefused`
+and leaves the output folder exactly as it was.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Callable
+
+import cadquery as cq
+import numpy as np
+import trimesh
+
+from whisker.design import Design
+from whisker.files import atomic_write_json, publish, staging_dir
+
+from . import checks
+from .assembly import export_step, sensor_assembly
+from .buildkey import build_key
+from .parts import PARTS, print_pose, print_transform
+
+
+class DesignRefused(ValueError):
+    """The design fails a geometry check; str() is one line naming the parameters."""
+
+    def __init__(self, failed: list[checks.Check]):
+        self.failed = failed
+        more = f" (+{len(failed) - 1} more failed checks)" if len(failed) > 1 else ""
+        super().__init__(f"design refused: {failed[0].line()}{more}")
+
+
+def _bbox(shape: cq.Shape) -> dict:
+    bb = shape.BoundingBox()
+    lo, hi = [bb.xmin, bb.ymin, bb.zmin], [bb.xmax, bb.ymax, bb.zmax]
+    return {"min": [round(v, 4) for v in lo], "max": [round(v, 4) for v in hi],
+            "size": [round(b - a, 4) for a, b in zip(lo, hi)]}
+
+
+def build_solids(d: Design) -> dict[str, cq.Shape]:
+    return {spec.name: spec.build(d) for spec in PARTS}
+
+
+def evaluate(d: Design) -> list[checks.Check]:
+    """All design checks without writing files (used by the sweep): in-memory tessellation."""
+    solids = build_solids(d)
+    solid = checks.solid_checks(d, solids["mount"], solids["membrane"])
+    if not all(c.ok for c in solid):
+        return solid
+    tol = (d.export.linear_tolerance, d.export.angular_tolerance)
+    return solid + mesh_design_checks(d, {n: checks.to_mesh(s, *tol) for n, s in solids.items()})
+
+
+def build(d: Design, out: str | Path, formats: tuple[str, ...] = ("stl", "step"),
+          progress: Callable[[str], None] | None = None) -> dict:
+    """Build, check and publish every part; returns the manifest. Raises DesignRefused."""
+    out = Path(out)
+    say = progress or (lambda msg: None)
+    t0 = time.perf_counter()
+    timings: dict[str, float] = {}
+
+    say("building solids")
+    solids = build_solids(d)
+    timings["solids_s"] = time.perf_counter() - t0
+
+    say("checking collisions and fits on the solids")
+    t = time.perf_counter()
+    solid = checks.solid_checks(d, solids["mount"], solids["membrane"])
+    timings["solid_checks_s"] = time.perf_counter() - t
+    if not all(c.ok for c in solid):
+        raise DesignRefused([c for c in solid if not c.ok])
+
+    lin, ang = d.export.linear_tolerance, d.export.angular_tolerance
+    parts: dict[str, dict] = {}
+    files: list[str] = []
+    with staging_dir(out) as tmp:
+        meshes: dict[str, trimesh.Trimesh] = {}
+        t = time.perf_counter()
+        for spec in PARTS:
+            say(f"exporting {spec.name}")
+            shape = solids[spec.name]
+            pose = print_transform(spec, shape) if spec.printable else np.eye(4)
+            placed = print_pose(spec, shape) if spec.printable else shape
+            entry = {"description": spec.description, "printable": spec.printable,
+                     "volume_mm3": round(shape.Volume(), 4), "bbox_mm": _bbox(shape),
+                     "print_bbox_mm": _bbox(placed) if spec.printable else None,
+                     "stl_to_design_transform": np.linalg.inv(pose).round(9).tolist(), "files": {}}
+            if "stl" in formats:
+                cq.exporters.export(cq.Workplane().add(placed), str(tmp / f"{spec.name}.stl"),
+                                    tolerance=lin, angularTolerance=ang)
+                entry["files"]["stl"] = f"{spec.name}.stl"
+            if "step" in formats:
+                cq.exporters.export(cq.Workplane().add(shape), str(tmp / f"{spec.name}.step"))
+                entry["files"]["step"] = f"{spec.name}.step"
+            files += list(entry["files"].values())
+            parts[spec.name] = entry
+            if "stl" in formats:
+                # Measure the mesh that was written, brought back into design coordinates.
+                mesh = trimesh.load_mesh(tmp / f"{spec.name}.stl")
+                meshes[spec.name] = mesh.copy().apply_transform(np.linalg.inv(pose))
+                extent = tuple(mesh.extents) if spec.printable else None
+                entry["checks"] = [c.to_dict() for c in
+                                   checks.mesh_checks(spec.name, mesh, shape.Volume(), spec.printable, d, extent)]
+            else:
+                meshes[spec.name] = checks.to_mesh(shape, lin, ang)
+                entry["checks"] = []
+        timings["export_s"] = time.perf_counter() - t
+
+        if "step" in formats:
+            say("exporting assembly")
+            export_step(sensor_assembly(d, solids["mount"], solids["membrane"]), str(tmp / "assembly.step"))
+            files.append("assembly.step")
+
+        say("measuring the meshes")
+        t = time.perf_counter()
+        measured = mesh_design_checks(d, meshes)
+        timings["mesh_checks_s"] = time.perf_counter() - t
+        for c in solid + measured:
+            parts.setdefault(c.part, {"checks": []}).setdefault("checks", []).append(c.to_dict())
+
+        failed = [checks.Check(**{**c, "parameters": tuple(c["parameters"])})
+                  for p in parts.values() for c in p.get("checks", []) if not c["ok"]]
+        if failed:
+            raise DesignRefused(failed)
+
+        timings["total_s"] = time.perf_counter() - t0
+        manifest = {
+            "generator": "whisker cad build",
+            "build_key": build_key(d, formats),
+            "design_digest": d.digest(),
+            "design": d.to_dict(),
+            "derived": d.derived(),
+            "export": {"formats": list(formats), "linear_tolerance_mm": lin, "angular_tolerance_rad": ang},
+            "parts": parts,
+            "assembly": {"files": {"step": "assembly.step"}} if "step" in formats else None,
+            "all_checks_passed": True,
+            "timings_s": {k: round(v, 3) for k, v in timings.items()},
+        }
+        atomic_write_json(tmp / "manifest.json", manifest)
+        old = _previous_files(out)
+        publish(tmp, out, files + ["manifest.json"], stale=old)
+    say(f"wrote {len(files)} files to {out}")
+    return manifest
+
+
+def mesh_design_checks(d: Design, meshes: dict[str, trimesh.Trimesh]) -> list[checks.Check]:
+    """Part-specific checks on meshes in design coordinates."""
+    return (checks.membrane_checks(meshes["membrane"], d)
+            + checks.mold_checks(meshes["mold_base"], meshes["mold_lid"], d)
+            + checks.ring_checks(meshes["whisker_ring"], d)
+            + checks.mount_checks(meshes["mount"], meshes["membrane"], d))
+
+
+def _previous_files(out: Path) -> list[str]:
+    import json
+
+    try:
+        old = json.loads((out / "manifest.json").read_text())
+    except (FileNotFoundError, ValueError):
+        return []
+    names = [f for p in old.get("parts", {}).values() for f in p.get("files", {}).values()]
+    return names + (["assembly.step"] if old.get("assembly") else [])
+

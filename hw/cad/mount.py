@@ -1,0 +1,82 @@
+"""The PLA mount: membrane seat, coil cavity with magnet pockets, LED channel, camera seat.
+
+Seen from the side, top to bottom (z in mm, sensor coordinates):
+- a polygon seat, as deep as the membrane is thick, so the membrane's upper face is flush with the top;
+- a flange the membrane's rim rests on (opening ``design.neck_radius``), undercut by
+- the coil cavity (radius ``design.cavity_radius``), whose wall carries one radial magnet pocket per
+  whisker at the coil-axis height (the magnet's face flush with the wall, ``actuation.gap`` from the
+  coil) and, lower down, an inward-facing groove for the LED strip;
+- a cone that narrows to the lens holder, then the camera board pocket (open at the bottom, with a
+  slot for the flat cable) and M2 screw holes; blind M3 holes in the bottom face for a robot adapter;
+  radial cable exits for the coil and LED wires.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cadquery as cq
+
+from whisker.design import Design
+
+from .shapes import cone, cut_all, cylinder, polar_xy, polygon_prism, radial_cylinder
+
+
+def levels(d: Design) -> dict[str, float]:
+    """Heights (z, mm) of the mount's features, shared by the model and its checks."""
+    pocket_d = d.hole(d.magnet.diameter)
+    led_top = d.coil_axis_z - pocket_d / 2 - d.mount.led_drop
+    led_bottom = led_top - d.hole(d.mount.led_strip_width)
+    cyl_bottom = led_bottom - d.print.min_wall
+    board_face = d.camera_z - d.camera.lens_height
+    bottom = board_face - d.camera.board_thickness - d.mount.camera_recess
+    cable = cyl_bottom - d.mount.cable_exit_diameter / 2 - d.print.min_wall
+    return dict(top=d.membrane.thickness, seat=0.0, pocket=d.coil_axis_z, pocket_top=d.coil_axis_z + pocket_d / 2,
+                led_top=led_top, led_bottom=led_bottom, cylinder_bottom=cyl_bottom, cable=cable,
+                board_face=board_face, bottom=bottom)
+
+
+def lens_radius(d: Design) -> float:
+    """Radius of the opening above the camera board: the lens holder's half-diagonal + clearance."""
+    return d.camera.lens_block / math.sqrt(2) + d.print.clearance
+
+
+def pocket_outer_radius(d: Design) -> float:
+    return d.cavity_radius + d.magnet.height + d.mount.glue_gap
+
+
+def led_outer_radius(d: Design) -> float:
+    return d.cavity_radius + d.mount.led_strip_thickness + d.print.clearance
+
+
+def mount(d: Design) -> cq.Shape:
+    z = levels(d)
+    m, cam, clr = d.mount, d.camera, d.print.clearance
+    body = cylinder(m.outer_radius, z["bottom"], z["top"])
+    r_cav = d.cavity_radius
+    tools = [
+        polygon_prism(d.membrane.sides, d.membrane.inscribed_radius + clr, z["seat"], z["top"] + 1),
+        cylinder(d.neck_radius, -m.flange_thickness - 0.01, z["seat"] + 0.5),
+        cylinder(r_cav, z["cylinder_bottom"], -m.flange_thickness),
+        cone(lens_radius(d), r_cav, z["board_face"] - 0.01, z["cylinder_bottom"] + 0.01),
+        # LED strip groove, facing inwards
+        cylinder(led_outer_radius(d), z["led_bottom"], z["led_top"]),
+        # camera board pocket and flat-cable slot, both open at the bottom
+        cq.Solid.makeBox(d.hole(cam.board_width), d.hole(cam.board_height), z["board_face"] - z["bottom"] + 1,
+                         cq.Vector(-d.hole(cam.board_width) / 2, -d.hole(cam.board_height) / 2, z["bottom"] - 1)),
+        cq.Solid.makeBox(m.ribbon_width, m.outer_radius + 1, cam.board_thickness + m.camera_recess + m.ribbon_thickness + 1,
+                         cq.Vector(-m.ribbon_width / 2, -m.outer_radius - 1, z["bottom"] - 1)),
+    ]
+    tools += [radial_cylinder(r_cav - 0.5, pocket_outer_radius(d), d.hole(d.magnet.diameter), z["pocket"], a)
+              for a in d.whisker_angles_deg]
+    hx, hy = cam.hole_spacing_x / 2, cam.hole_spacing_y / 2
+    tools += [cylinder(cam.hole_diameter / 2, z["board_face"] - 0.5, z["board_face"] + 5, sx * hx, sy * hy)
+              for sx in (-1, 1) for sy in (-1, 1)]
+    # Mounting holes start at +y; the flat cable leaves at -y.
+    tools += [cylinder(d.hole(m.mounting_hole_diameter) / 2, z["bottom"] - 1, z["bottom"] + m.mounting_hole_depth,
+                       *polar_xy(m.mounting_bolt_radius, 90 + 360 * k / m.mounting_hole_count))
+              for k in range(m.mounting_hole_count)]
+    tools += [radial_cylinder(0, m.outer_radius + 1, d.hole(m.cable_exit_diameter), z["cable"],
+                              180.0 / d.whiskers.count + 360.0 * k / m.cable_exit_count)
+              for k in range(m.cable_exit_count)]
+    return cut_all(body, tools)

@@ -1,0 +1,44 @@
+"""Whisker ring: the gluing and casting jig (printable).
+
+A ring plate with a blind socket per rod at the ring radius stands on a tube on the mould lid, so
+that with each rod pushed to the end of its socket the rod tip is exactly ``whiskers.protrusion``
+above the membrane and all rods stay parallel while the Ecoflex cures. The plate's central
+opening lets the Ecoflex be poured into the lid's pour opening with the jig in place.
+"""
+
+from __future__ import annotations
+
+import cadquery as cq
+
+from whisker.design import Design
+
+from . import mold
+from .shapes import cut_all, cylinder, polar_xy
+
+
+def radii(d: Design) -> dict[str, float]:
+    """Inner opening, outer plate radius and tube radii (mm)."""
+    w, r = d.whiskers, d.ring
+    socket_r = d.hole(w.rod_diameter) / 2
+    outer = max(w.ring_radius + socket_r + r.margin, mold.outer_radius(d))
+    return dict(opening=w.ring_radius - socket_r - r.margin, outer=outer, tube_inner=outer - r.tube_wall)
+
+
+def levels(d: Design) -> dict[str, float]:
+    lid_top = d.membrane.thickness + d.mold.lid_thickness
+    tip = d.membrane.thickness + d.whiskers.protrusion
+    return dict(lid_top=lid_top, socket_bottom=tip, plate_bottom=tip - d.ring.hole_depth,
+                top=tip - d.ring.hole_depth + d.ring.plate_thickness)
+
+
+def whisker_ring(d: Design) -> cq.Shape:
+    rr, z = radii(d), levels(d)
+    plate = cylinder(rr["outer"], z["plate_bottom"], z["top"])
+    if rr["opening"] > 0:
+        plate = plate.cut(cylinder(rr["opening"], z["plate_bottom"] - 1, z["top"] + 1))
+    tube = cylinder(rr["outer"], z["lid_top"], z["plate_bottom"] + 0.01).cut(
+        cylinder(rr["tube_inner"], z["lid_top"] - 1, z["plate_bottom"] + 0.02))
+    body = plate.fuse(tube).clean()
+    sockets = [cylinder(d.hole(d.whiskers.rod_diameter) / 2, z["plate_bottom"] - 1, z["socket_bottom"],
+                        *polar_xy(d.whiskers.ring_radius, a)) for a in d.whisker_angles_deg]
+    return cut_all(body, sockets)

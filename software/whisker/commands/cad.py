@@ -1,0 +1,102 @@
+"""`whisker cad`: build, check and export the printable parts; sweep the feasible designs."""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+import click
+
+from whisker.cliutil import design_options, fail
+
+FORMATS = {"all": ("stl", "step"), "stl": ("stl", "step"), "step": ("stl", "step")}
+
+
+@click.group()
+def cli():
+    """Parametric CAD: every part of the sensor from the design, as STL and STEP, checked."""
+
+
+def _up_to_date(out: Path, key: str) -> bool:
+    try:
+        manifest = json.loads((out / "manifest.json").read_text())
+    except (FileNotFoundError, ValueError):
+        return False
+    files = [f for p in manifest.get("parts", {}).values() for f in p.get("files", {}).values()]
+    return manifest.get("build_key") == key and all((out / f).exists() for f in files)
+
+
+@cli.command()
+@design_options
+@click.option("--out", type=click.Path(file_okay=False), default="exports", show_default=True,
+              help="Output folder for STL, STEP and manifest.json.")
+@click.option("--force", is_flag=True, help="Rebuild even if the output is up to date.")
+@click.option("--quiet", "-q", is_flag=True, help="Only print the result line.")
+def build(design, out, force, quiet):
+    """Build every part, run every geometry check, write STL + STEP + manifest.json.
+
+    A design that fails a check is refused: exit status 1, one line naming the parameters and
+    the violated constraint, and the output folder left exactly as it was.
+    """
+    from whisker.cad.buildkey import build_key
+
+    out = Path(out)
+    formats = ("stl", "step")
+    if not force and _up_to_date(out, build_key(design, formats)):
+        click.echo(f"{out}/ is up to date (design {design.digest()})")
+        return
+    from whisker.cad.build import DesignRefused, build as run_build
+
+    t0 = time.perf_counter()
+    say = None if quiet else (lambda msg: click.echo(f"  {msg}", err=True))
+    try:
+        manifest = run_build(design, out, formats, progress=say)
+    except DesignRefused as err:
+        fail(str(err), code=1)
+    n = sum(len(p["checks"]) for p in manifest["parts"].values())
+    click.echo(f"built {len(manifest['parts'])} parts for {design.whiskers.count} whiskers at "
+               f"{design.whiskers.ring_radius:g} mm into {out}/: {n} checks passed "
+               f"({time.perf_counter() - t0:.1f} s)")
+
+
+def _int_range(text: str) -> list[int]:
+    a, _, b = text.partition("..")
+    return list(range(int(a), int(b or a) + 1))
+
+
+def _float_list(text: str) -> list[float]:
+    if ".." in text:  # start..stop:step
+        rng, _, step = text.partition(":")
+        a, _, b = rng.partition("..")
+        a, b, s = float(a), float(b), float(step or 1)
+        return [round(a + i * s, 6) for i in range(int(round((b - a) / s)) + 1)]
+    return [float(x) for x in text.split(",")]
+
+
+@cli.command()
+@click.option("--design", "design_file", type=click.Path(dir_okay=False), default=None,
+              help="Design TOML file (default: hw/sensor.toml).")
+@click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE", help="Override a design value.")
+@click.option("--counts", default="2..16", show_default=True, help="Whisker counts, a..b.")
+@click.option("--radii", default="4..20:2", show_default=True, help="Ring radii in mm: a..b:step or a,b,c.")
+@click.option("--out", type=click.Path(file_okay=False), default="exports/sweep", show_default=True)
+@click.option("--workers", default=2, show_default=True, help="Parallel processes.")
+def sweep(design_file, overrides, counts, radii, out, workers):
+    """Build and check every (count, radius) pair: a table and a plot of the feasible region."""
+    from tqdm import tqdm
+
+    from whisker.cad.sweep import sweep as run_sweep, write_reports
+
+    counts_l, radii_l = _int_range(counts), _float_list(radii)
+    bar = tqdm(total=len(counts_l) * len(radii_l), desc="designs", unit="design", file=sys.stderr)
+
+    def progress(i, n):
+        bar.update(i - bar.n)
+
+    rows = run_sweep(counts_l, radii_l, design_file, tuple(overrides), workers, progress)
+    bar.close()
+    paths = write_reports(rows, Path(out))
+    ok = sum(r["feasible"] for r in rows)
+    click.echo(f"{ok} of {len(rows)} designs feasible; wrote " + ", ".join(str(p) for p in paths))

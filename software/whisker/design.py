@@ -1,0 +1,336 @@
+"""The design model: every dimension of the sensor, validated, in one object.
+
+`load_design()` reads a TOML design file (default: ``hw/sensor.toml``, the paper's sensor), applies
+``section.key=value`` overrides and returns a frozen, validated :class:`Design`. Every other module
+(CAD, coil calculator, BOM, tracking, simulator) takes a ``Design`` and derives what it needs from
+it; no dimension is typed twice. Derived quantities (pivot height, l_u, l_l, mm per pixel, whisker
+angles, cavity radius ...) are properties here so that every module derives them the same way.
+
+Units: millimetres, grams, seconds, volts, amperes, ohms, degrees, degrees Celsius, unless a field's
+description says otherwise. Coordinates: z = 0 on the membrane's lower face, z up, sensor axis = z.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from pathlib import Path
+from typing import Any, Iterable
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+    import tomli as tomllib  # type: ignore[no-redef]
+
+
+class DesignError(ValueError):
+    """A design that cannot be built. The message is one line naming the parameter(s)."""
+
+
+def _default_design_path() -> Path:
+    # hw/cad is importable as whisker.cad; the design file sits beside it in hw/.
+    return Path(__file__).resolve().parents[2] / "hw" / "sensor.toml"
+
+
+DEFAULT_DESIGN = _default_design_path()
+
+Pos = Field(gt=0)
+
+
+class _Section(BaseModel):
+    # Unknown keys are typos: refuse them instead of silently ignoring a user's value.
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class Whiskers(_Section):
+    count: int = Field(ge=1, le=64, description="number of whiskers")
+    ring_radius: float = Field(gt=0, description="mm, circle of rod centres")
+    rod_diameter: float = Field(gt=0, description="mm")
+    rod_length: float = Field(gt=0, description="mm, whole rod")
+    protrusion: float = Field(gt=0, description="mm of rod above the membrane's upper face")
+    max_deflection_deg: float = Field(gt=0, lt=45, description="deg, largest tilt about the pivot")
+    first_angle_deg: float = Field(ge=-360, le=360, description="deg, whisker 0 from +x, CCW")
+
+
+class Membrane(_Section):
+    sides: int = Field(ge=3, le=64, description="regular polygon side count")
+    inscribed_radius: float = Field(gt=0, description="mm")
+    thickness: float = Field(gt=0, description="mm")
+    material: str = "Ecoflex 00-30"
+    density: float = Field(gt=0, description="g/cm^3")
+
+
+class Coil(_Section):
+    outer_diameter: float = Field(gt=0, description="mm")
+    inner_diameter: float = Field(gt=0, description="mm, winding bore")
+    length: float = Field(gt=0, description="mm along the (radial) coil axis")
+    drop: float = Field(ge=0, description="mm from the membrane's lower face to the coil's top")
+    wire_diameter: float = Field(gt=0, description="mm, bare copper")
+    turns: int = Field(ge=1, description="turns")
+    resistance: float = Field(gt=0, description="ohm, measured")
+    marker_diameter: float = Field(gt=0, description="mm, red dot on the coil's lower face")
+
+
+class Magnet(_Section):
+    diameter: float = Field(gt=0, description="mm")
+    height: float = Field(gt=0, description="mm along the magnetisation")
+    grade: str = "N42"
+    remanence: float = Field(gt=0, lt=2, description="T")
+    max_temperature: float = Field(gt=0, description="C")
+
+
+class Actuation(_Section):
+    gap: float = Field(gt=0, description="mm between coil face and magnet face at rest")
+    voltage: float = Field(gt=0, description="V at the coil for grasping")
+
+
+class Camera(_Section):
+    distance: float = Field(gt=0, description="mm, marker plane to the lens's optical centre")
+    focal_length_px: float = Field(gt=0, description="px")
+    width_px: int = Field(ge=16)
+    height_px: int = Field(ge=16)
+    board_width: float = Field(gt=0, description="mm")
+    board_height: float = Field(gt=0, description="mm")
+    board_thickness: float = Field(gt=0, description="mm")
+    lens_height: float = Field(gt=0, description="mm, board front face to optical centre")
+    lens_block: float = Field(gt=0, description="mm, square lens holder")
+    hole_spacing_x: float = Field(gt=0, description="mm")
+    hole_spacing_y: float = Field(gt=0, description="mm")
+    hole_diameter: float = Field(gt=0, description="mm")
+
+
+class Mount(_Section):
+    outer_radius: float = Field(gt=0, description="mm")
+    glue_gap: float = Field(ge=0, description="mm behind each magnet")
+    led_strip_width: float = Field(gt=0, description="mm")
+    led_strip_thickness: float = Field(gt=0, description="mm")
+    led_drop: float = Field(ge=0, description="mm from the pockets' lower edge to the LED channel")
+    seat_ledge: float = Field(gt=0, description="mm of the membrane's rim resting on the seat flange")
+    flange_thickness: float = Field(gt=0, description="mm, seat flange above the (wider) coil cavity")
+    camera_recess: float = Field(ge=0, description="mm below the camera board")
+    mounting_hole_count: int = Field(ge=0, le=12)
+    mounting_hole_diameter: float = Field(gt=0, description="mm")
+    mounting_hole_depth: float = Field(gt=0, description="mm")
+    mounting_bolt_radius: float = Field(gt=0, description="mm")
+    cable_exit_diameter: float = Field(gt=0, description="mm")
+    cable_exit_count: int = Field(ge=0, le=8)
+    ribbon_width: float = Field(gt=0, description="mm")
+    ribbon_thickness: float = Field(gt=0, description="mm")
+
+
+class Mold(_Section):
+    wall: float = Field(gt=0, description="mm")
+    floor: float = Field(gt=0, description="mm")
+    lid_thickness: float = Field(gt=0, description="mm")
+    pin_diameter: float = Field(gt=0, description="mm")
+    pin_height: float = Field(gt=0, description="mm")
+    pour_diameter: float = Field(gt=0, description="mm")
+    vent_diameter: float = Field(gt=0, description="mm")
+
+
+class Ring(_Section):
+    hole_depth: float = Field(gt=0, description="mm")
+    plate_thickness: float = Field(gt=0, description="mm")
+    tube_wall: float = Field(gt=0, description="mm")
+    margin: float = Field(gt=0, description="mm")
+
+
+class Print(_Section):
+    clearance: float = Field(ge=0, le=2, description="mm, radial, added to holes and pockets")
+    min_wall: float = Field(gt=0, description="mm")
+    bed_x: float = Field(gt=0, description="mm")
+    bed_y: float = Field(gt=0, description="mm")
+    max_height: float = Field(gt=0, description="mm")
+
+
+class Export(_Section):
+    linear_tolerance: float = Field(gt=0, le=1, description="mm")
+    angular_tolerance: float = Field(gt=0, le=1.5, description="rad")
+
+
+class Design(_Section):
+    """The whole sensor. Build one with :func:`load_design`."""
+
+    whiskers: Whiskers
+    membrane: Membrane
+    coil: Coil
+    magnet: Magnet
+    actuation: Actuation
+    camera: Camera
+    mount: Mount
+    mold: Mold
+    ring: Ring
+    print: Print
+    export: Export
+
+    @model_validator(mode="after")
+    def _buildable(self) -> "Design":
+        # Only relations without which no solid can be built; everything the CAD can measure is
+        # measured on the solids by whisker.cad.checks instead.
+        if self.coil.inner_diameter >= self.coil.outer_diameter:
+            raise ValueError("coil.inner_diameter must be smaller than coil.outer_diameter")
+        if self.rod_below_membrane <= 0:
+            raise ValueError(
+                "whiskers.rod_length must exceed whiskers.protrusion + membrane.thickness "
+                f"(rod ends {-self.rod_below_membrane:.3g} mm above the membrane's lower face)")
+        if self.rod_below_membrane <= self.coil.drop:
+            raise ValueError(
+                "whiskers.rod_length - whiskers.protrusion - membrane.thickness must exceed "
+                f"coil.drop: the rod ends {self.rod_below_membrane:.3g} mm below the membrane, "
+                f"above the coil ({self.coil.drop:.3g} mm)")
+        if self.whiskers.rod_diameter >= self.coil.outer_diameter:
+            raise ValueError("whiskers.rod_diameter must be smaller than coil.outer_diameter")
+        return self
+
+    # ---- derived geometry (mm) -------------------------------------------------------------
+    @property
+    def whisker_angles_deg(self) -> list[float]:
+        """Angle of each whisker from +x, counter-clockwise seen from above, deg."""
+        n = self.whiskers.count
+        return [(self.whiskers.first_angle_deg + 360.0 * i / n) % 360.0 for i in range(n)]
+
+    @property
+    def pivot_z(self) -> float:
+        """Whisker pivot: the membrane's mid-plane (the paper's assumption), mm."""
+        return self.membrane.thickness / 2.0
+
+    @property
+    def rod_below_membrane(self) -> float:
+        """Rod length below the membrane's lower face, mm."""
+        w = self.whiskers
+        return w.rod_length - w.protrusion - self.membrane.thickness
+
+    @property
+    def coil_axis_z(self) -> float:
+        """Height of the (radial) coil axis, mm."""
+        return -(self.coil.drop + self.coil.outer_diameter / 2.0)
+
+    @property
+    def marker_z(self) -> float:
+        """Height of the marker plane (the coils' lower faces the camera sees), mm."""
+        return -(self.coil.drop + self.coil.outer_diameter)
+
+    @property
+    def l_u(self) -> float:
+        """Pivot to whisker tip, mm (the paper's l_u)."""
+        return self.whiskers.protrusion + self.membrane.thickness - self.pivot_z
+
+    @property
+    def l_l(self) -> float:
+        """Pivot to the tracked marker on the coil's lower face, mm (the paper's l_l)."""
+        return self.pivot_z - self.marker_z
+
+    @property
+    def mm_per_px(self) -> float:
+        """k: mm per pixel at the marker plane from the pinhole model, mm/px."""
+        return self.camera.distance / self.camera.focal_length_px
+
+    @property
+    def camera_z(self) -> float:
+        """Height of the lens's optical centre, mm."""
+        return self.marker_z - self.camera.distance
+
+    @property
+    def cavity_radius(self) -> float:
+        """Radius of the mount's coil cavity = where the magnets' faces sit, mm."""
+        return self.whiskers.ring_radius + self.coil.length / 2.0 + self.actuation.gap
+
+    @property
+    def neck_radius(self) -> float:
+        """Radius of the opening under the membrane (inside the seat flange), mm."""
+        return self.membrane.inscribed_radius - self.mount.seat_ledge
+
+    @property
+    def membrane_circumradius(self) -> float:
+        """Distance from centre to a membrane polygon vertex, mm."""
+        m = self.membrane
+        return m.inscribed_radius / math.cos(math.pi / m.sides)
+
+    def hole(self, nominal: float) -> float:
+        """Printed hole diameter for a part of `nominal` diameter: nominal + 2 x clearance, mm."""
+        return nominal + 2.0 * self.print.clearance
+
+    def derived(self) -> dict[str, Any]:
+        """The derived quantities other modules read, with units in their names."""
+        return {"l_u_mm": self.l_u, "l_l_mm": self.l_l, "mm_per_px": self.mm_per_px,
+                "pivot_z_mm": self.pivot_z, "marker_z_mm": self.marker_z, "camera_z_mm": self.camera_z,
+                "coil_axis_z_mm": self.coil_axis_z, "cavity_radius_mm": self.cavity_radius,
+                "neck_radius_mm": self.neck_radius, "rod_below_membrane_mm": self.rod_below_membrane,
+                "whisker_angles_deg": self.whisker_angles_deg}
+
+    # ---- identity -------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        return self.model_dump(mode="json")
+
+    def digest(self) -> str:
+        """Stable hash of the resolved design (for build caching and provenance)."""
+        blob = json.dumps(self.to_dict(), sort_keys=True).encode()
+        return hashlib.sha256(blob).hexdigest()[:16]
+
+
+# ---- loading -------------------------------------------------------------------------------
+
+def _parse_value(text: str) -> Any:
+    """Parse an override's value as a TOML value (6, 10.5, true, "N52"); bare words are strings."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def apply_overrides(data: dict[str, Any], overrides: Iterable[str]) -> dict[str, Any]:
+    """Return a copy of `data` with ``section.key=value`` overrides applied."""
+    out = json.loads(json.dumps(data))
+    for item in overrides:
+        if "=" not in item:
+            raise DesignError(f"override {item!r}: expected section.key=value")
+        key, text = item.split("=", 1)
+        parts = key.strip().split(".")
+        node = out
+        for p in parts[:-1]:
+            if not isinstance(node.get(p), dict):
+                raise DesignError(f"override {key!r}: no section {p!r} in the design")
+            node = node[p]
+        if parts[-1] not in node:
+            raise DesignError(f"override {key!r}: no parameter {parts[-1]!r} in [{'.'.join(parts[:-1])}]")
+        node[parts[-1]] = _parse_value(text.strip())
+    return out
+
+
+def _one_line(err: ValidationError) -> str:
+    msgs = []
+    for e in err.errors():
+        loc = ".".join(str(p) for p in e["loc"])
+        msg = e["msg"].removeprefix("Value error, ")
+        msgs.append(f"{loc}: {msg} (got {e.get('input')!r})" if loc else msg)
+    return "; ".join(msgs)
+
+
+def design_from_dict(data: dict[str, Any]) -> Design:
+    try:
+        return Design.model_validate(data)
+    except ValidationError as err:
+        raise DesignError(_one_line(err)) from None
+
+
+def load_design(path: str | Path | None = None, overrides: Iterable[str] = ()) -> Design:
+    """Load and validate a design file (default: the paper's sensor) with optional overrides.
+
+    Raises :class:`DesignError` with a one-line message naming the offending parameter(s).
+    """
+    path = Path(path) if path else DEFAULT_DESIGN
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise DesignError(f"design file not found: {path}") from None
+    except tomllib.TOMLDecodeError as err:
+        raise DesignError(f"{path}: not valid TOML: {err}") from None
+    return design_from_dict(apply_overrides(data, overrides))
+
+
+def default_design(*overrides: str) -> Design:
+    """The paper's sensor, optionally with overrides (convenience for tests and notebooks)."""
+    return load_design(None, overrides)

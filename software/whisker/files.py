@@ -1,0 +1,78 @@
+"""Atomic file output: a failed or interrupted run leaves the previous good output in place."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, Iterator
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file normal permissions
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    return atomic_write_bytes(path, text.encode())
+
+
+def _finite(obj: Any, where: str = "") -> Any:
+    """Refuse NaN/inf anywhere in a JSON document, naming where it is."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        raise ValueError(f"non-finite number {obj} at {where or '<root>'}")
+    if isinstance(obj, dict):
+        return {k: _finite(v, f"{where}.{k}" if where else str(k)) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v, f"{where}[{i}]") for i, v in enumerate(obj)]
+    return obj
+
+
+def atomic_write_json(path: str | Path, obj: Any) -> Path:
+    """Write JSON atomically; NaN or inf anywhere raises ValueError naming the key."""
+    return atomic_write_text(path, json.dumps(_finite(obj), indent=2, allow_nan=False) + "\n")
+
+
+@contextmanager
+def staging_dir(final: str | Path) -> Iterator[Path]:
+    """A temporary folder beside `final` (same file system, so renames are atomic); removed afterwards."""
+    final = Path(final)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.tmp-", dir=final.parent))
+    try:
+        yield tmp
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def publish(staged: Path, final: Path, names: list[str], stale: list[str] = ()) -> None:
+    """Move `names` from `staged` into `final` one atomic rename each, then drop `stale` files.
+
+    Callers put the index file (e.g. manifest.json) last, so a reader never sees an index that
+    points to files not yet in place.
+    """
+    final.mkdir(parents=True, exist_ok=True)
+    for name in names:
+        (final / name).parent.mkdir(parents=True, exist_ok=True)
+        os.replace(staged / name, final / name)
+    for name in stale:
+        if name not in names:
+            (final / name).unlink(missing_ok=True)
