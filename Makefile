@@ -46,6 +46,6 @@ bench: $(BIN)/.installed
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
 
 clean: ## remove build outputs (not the environment)
-	rm -rf $(OUT) benchmarks/out .pytest_cache
+	rm -rf $(OUT) .pytest_cache
 
 -include mk/*.mk
