@@ -42,7 +42,7 @@ sweep: $(BIN)/.installed ## feasibility sweep over whisker counts 2..16 and radi
 test: $(BIN)/.installed ## run the test suite
 	$(BIN)/python -m pytest -q
 
-bench: $(BIN)/.installed 
+bench: $(BIN)/.installed ## accuracy-vs-time benchmarks; tables and plots in benchmarks/results/
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
 
 clean: ## remove build outputs (not the environment)
