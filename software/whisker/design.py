@@ -151,6 +151,24 @@ class Export(_Section):
     angular_tolerance: float = Field(gt=0, le=1.5, description="rad")
 
 
+class Mechanics(_Section):
+    rotational_stiffness: float = Field(gt=0, description="N*mm/rad about a whisker's pivot")
+    damping_ratio: float = Field(ge=0, description="dimensionless")
+    rod_density: float = Field(gt=0, description="g/cm^3")
+    tip_friction: float = Field(ge=0, description="Coulomb coefficient of the tips")
+
+
+class Thermal(_Section):
+    ambient: float = Field(ge=-50, le=100, description="C")
+    pla_softening: float = Field(gt=0, description="C")
+    enamel_class: float = Field(gt=0, description="C")
+
+
+class Driver(_Section):
+    type: str = Field(description="H-bridge module name")
+    supply_voltage: float = Field(gt=0, description="V into the H-bridge")
+
+
 class Design(_Section):
     """The whole sensor. Build one with :func:`load_design`."""
 
@@ -165,6 +183,9 @@ class Design(_Section):
     ring: Ring
     print: Print
     export: Export
+    mechanics: Mechanics
+    thermal: Thermal
+    driver: Driver
 
     @model_validator(mode="after")
     def _buildable(self) -> "Design":
