@@ -16,7 +16,7 @@ import hashlib
 import json
 import math
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
@@ -169,6 +169,20 @@ class Driver(_Section):
     supply_voltage: float = Field(gt=0, description="V into the H-bridge")
 
 
+class Wiring(_Section):
+    expander: Literal["none", "pca9685"] = Field(
+        description="none: coils on Pi GPIO (2 per coil, <= 11 coils); pca9685: I2C PWM expander(s)")
+    pca9685_address: int = Field(ge=0x40, le=0x6F, description="I2C address of the first PCA9685")
+
+
+class Bom(_Section):
+    wire_waste: float = Field(ge=0, le=5, description="fraction of magnet wire added for practice/scrap")
+    coil_lead_length: float = Field(ge=0, description="mm of magnet wire per coil lead (2 leads per coil)")
+    ecoflex_waste: float = Field(ge=0, le=5, description="fraction of Ecoflex added (cup, sprue, vents)")
+    pla_waste: float = Field(ge=0, le=5, description="fraction of PLA added (brim, purge, failed prints)")
+    led_cut_pitch: float = Field(gt=0, description="mm between the LED strip's cut marks")
+
+
 class Design(_Section):
     """The whole sensor. Build one with :func:`load_design`."""
 
@@ -183,6 +197,8 @@ class Design(_Section):
     ring: Ring
     print: Print
     export: Export
+    wiring: Wiring
+    bom: Bom
     mechanics: Mechanics
     thermal: Thermal
     driver: Driver
