@@ -183,6 +183,14 @@ class Bom(_Section):
     led_cut_pitch: float = Field(gt=0, description="mm between the LED strip's cut marks")
 
 
+class Tracking(_Section):
+    image_up_deg: float = Field(ge=-360, le=360, description=(
+        "deg, direction in the sensor frame (CCW from +x, seen from above) that appears at the top "
+        "of the camera image"))
+    marker_search_px: float = Field(gt=0, le=200, description=(
+        "px, largest marker motion between two frames that frame-to-frame matching accepts"))
+
+
 class Design(_Section):
     """The whole sensor. Build one with :func:`load_design`."""
 
@@ -197,6 +205,7 @@ class Design(_Section):
     ring: Ring
     print: Print
     export: Export
+    tracking: Tracking
     wiring: Wiring
     bom: Bom
     mechanics: Mechanics
