@@ -169,6 +169,17 @@ class Driver(_Section):
     supply_voltage: float = Field(gt=0, description="V into the H-bridge")
 
 
+class Drive(_Section):
+    full_scale_voltage: float = Field(gt=0, le=50, description="V at the coil at 100 % PWM duty (measure it)")
+    max_coil_voltage: float = Field(gt=0, le=50, description="V, coil rating: higher levels are refused")
+    driver_channel_current: float = Field(gt=0, description="A, H-bridge DC rating per channel")
+    pwm_frequency: float = Field(ge=10, le=100000, description="Hz, PWM on the H-bridge inputs")
+    guard_margin: float = Field(ge=0, description="C below the first thermal limit where a coil is cut")
+    guard_derate_band: float = Field(ge=0, description="C below the cut-off where derating starts")
+    guard_hysteresis: float = Field(gt=0, description="C a cut coil cools below the cut-off before re-use")
+    guard_period: float = Field(gt=0, le=1, description="s between thermal-guard updates")
+
+
 class Wiring(_Section):
     expander: Literal["none", "pca9685"] = Field(
         description="none: coils on Pi GPIO (2 per coil, <= 11 coils); pca9685: I2C PWM expander(s)")
@@ -205,6 +216,7 @@ class Design(_Section):
     ring: Ring
     print: Print
     export: Export
+    drive: Drive
     tracking: Tracking
     wiring: Wiring
     bom: Bom
