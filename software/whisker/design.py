@@ -18,7 +18,7 @@ import math
 from pathlib import Path
 from typing import Any, Iterable, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 try:  # Python >= 3.11
     import tomllib
@@ -141,9 +141,46 @@ class Ring(_Section):
 class Print(_Section):
     clearance: float = Field(ge=0, le=2, description="mm, radial, added to holes and pockets")
     min_wall: float = Field(gt=0, description="mm")
-    bed_x: float = Field(gt=0, description="mm")
-    bed_y: float = Field(gt=0, description="mm")
-    max_height: float = Field(gt=0, description="mm")
+    profile: str = Field(min_length=1, description="PrusaSlicer printer profile .ini (relative to hw/): the "
+                         "one source of the bed, height, nozzle, layer and filament numbers (whisker.printer)")
+    coupon_clearances: tuple[float, ...] = Field(min_length=1, max_length=12,
+                                                 description="mm, radial clearances tried on the tolerance coupon")
+    # Read from the profile; a design file may repeat them only with the profile's values.
+    bed_x: float | None = Field(default=None, validate_default=True, description="mm, from the profile's bed_shape")
+    bed_y: float | None = Field(default=None, validate_default=True, description="mm, from the profile's bed_shape")
+    max_height: float | None = Field(default=None, validate_default=True, description="mm, max_print_height")
+    nozzle_diameter: float | None = Field(default=None, validate_default=True, description="mm, from the profile")
+    layer_height: float | None = Field(default=None, validate_default=True, description="mm, from the profile")
+    filament_density: float | None = Field(default=None, validate_default=True, description="g/cm^3, from the profile")
+
+    @field_validator("profile")
+    @classmethod
+    def _profile_readable(cls, v: str) -> str:
+        from whisker.printer import ProfileError, load_profile
+        try:
+            load_profile(v)
+        except ProfileError as err:
+            raise ValueError(str(err)) from None
+        return v
+
+    @field_validator("coupon_clearances")
+    @classmethod
+    def _clearances(cls, v: tuple[float, ...]) -> tuple[float, ...]:
+        if any(not (0.0 <= c <= 1.0) for c in v) or len(set(v)) != len(v):
+            raise ValueError("each clearance must be in [0, 1] mm and appear once")
+        return tuple(sorted(v))
+
+    @field_validator("bed_x", "bed_y", "max_height", "nozzle_diameter", "layer_height", "filament_density")
+    @classmethod
+    def _from_profile(cls, v: float | None, info) -> float | None:
+        if "profile" not in info.data:
+            return v  # the profile's own error is reported
+        from whisker.printer import load_profile
+        have = float(getattr(load_profile(info.data["profile"]), info.field_name))
+        if v is not None and abs(v - have) > 1e-9 * max(1.0, abs(have)):
+            raise ValueError(f"comes from the printer profile {info.data['profile']} ({have:g} there); "
+                             "edit the profile or set print.profile")
+        return have
 
 
 class Export(_Section):
@@ -162,6 +199,10 @@ class Thermal(_Section):
     ambient: float = Field(ge=-50, le=100, description="C")
     pla_softening: float = Field(gt=0, description="C")
     enamel_class: float = Field(gt=0, description="C")
+    convection_coefficient: float = Field(20.0, gt=0, le=1000, description="W/(m^2 K), coil surface to air")
+    emissivity: float = Field(0.9, ge=0, le=1, description="coil surface (enamel)")
+    rod_conductance: float = Field(0.0015, ge=0, description="W/K, coil to membrane through the rod")
+    former_specific_heat: float = Field(0.8, gt=0, description="J/(g K), core in the coil bore (the rod)")
 
 
 class Driver(_Section):
@@ -203,6 +244,11 @@ class Tracking(_Section):
         "px, largest marker motion between two frames that frame-to-frame matching accepts"))
 
 
+class Winding(_Section):
+    enamel_grade: int = Field(1, ge=1, le=3, description="IEC 60317 enamel grade (1 thin .. 3 thick)")
+    fill_factor: float = Field(0.55, gt=0, lt=0.907, description="copper area / winding window area")
+
+
 class Design(_Section):
     """The whole sensor. Build one with :func:`load_design`."""
 
@@ -217,6 +263,7 @@ class Design(_Section):
     ring: Ring
     print: Print
     export: Export
+    winding: Winding
     drive: Drive
     tracking: Tracking
     wiring: Wiring
