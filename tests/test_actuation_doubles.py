@@ -1,0 +1,63 @@
+"""Test doubles shared by the actuation, guard and recording tests (no tests in here).
+
+`DoubleThermal` / `double_current_A` stand in for the issue-4 coil model (whisker.thermal.CoilThermal,
+whisker.coil.current_A) with the same call signatures: a lumped coil (heat capacity C, thermal
+resistance to ambient Rth, copper resistance rising 0.393 %/K). `speedup` makes a coil heat up
+faster for real-time watchdog tests. Where the real modules exist, `coil_model(design)` returns them.
+"""
+
+from __future__ import annotations
+
+import math
+
+ALPHA_CU = 0.00393  # 1/K, copper
+
+
+def double_current_A(design, volts_at_coil, temperature_C=20.0):
+    """V / R(T), R(20 C) = coil.resistance (test double of whisker.coil.current_A)."""
+    r = design.coil.resistance * (1.0 + ALPHA_CU * (temperature_C - 20.0))
+    return volts_at_coil / r
+
+
+class DoubleThermal:
+    """Test double of whisker.thermal.CoilThermal: C dT/dt = I^2 R(T) - (T - Ta) / Rth (exact step
+    for a frozen R over dt)."""
+
+    def __init__(self, design, heat_capacity_J_per_K=0.1, rth_K_per_W=60.0, speedup=1.0):
+        self.design = design
+        self.ambient_C = design.thermal.ambient
+        self.limit_C = min(design.thermal.pla_softening, design.magnet.max_temperature,
+                           design.thermal.enamel_class)
+        self.c = heat_capacity_J_per_K / speedup
+        self.rth = rth_K_per_W
+
+    def step(self, temperature_C, current_A, dt_s):
+        r = self.design.coil.resistance * (1.0 + ALPHA_CU * (temperature_C - 20.0))
+        p = current_A ** 2 * r
+        t_inf = self.ambient_C + p * self.rth
+        tau = self.rth * self.c
+        return t_inf + (temperature_C - t_inf) * math.exp(-dt_s / tau)
+
+
+def coil_model(design):
+    """(thermal, current_fn): the real issue-4 coil model when it exists, else the doubles."""
+    try:
+        from whisker.coil import current_A
+        from whisker.thermal import CoilThermal
+    except ImportError:
+        return DoubleThermal(design), double_current_A
+    return CoilThermal(design), current_A
+
+
+class FakeClock:
+    """A clock the test moves by hand (seconds)."""
+
+    def __init__(self, t=0.0):
+        self.t = float(t)
+
+    def __call__(self):
+        return self.t
+
+    def advance(self, dt):
+        self.t += dt
+        return self.t
