@@ -11,7 +11,7 @@ import trimesh
 
 from whisker.design import Design
 
-from . import mold, mount, reference, ring
+from . import coupon, mold, mount, reference, ring
 
 
 @dataclass(frozen=True)
@@ -31,6 +31,8 @@ PARTS: tuple[PartSpec, ...] = (
     PartSpec("mold_lid", mold.mold_lid, True, "membrane mould, lid: rod guides, pour opening, vents"),
     PartSpec("whisker_ring", ring.whisker_ring, True, "gluing/casting jig holding the rods at the ring radius",
              flip_to_print=True),
+    PartSpec("tolerance_coupon", coupon.tolerance_coupon, True,
+             "print-tolerance coupon: rod holes and magnet pockets at print.coupon_clearances, labelled"),
     PartSpec("membrane", reference.membrane, False, "cast Ecoflex membrane (reference, not printed)"),
     PartSpec("rod", reference.rod, False, "carbon-fibre whisker rod, whisker 0 (reference)"),
     PartSpec("coil", reference.coil, False, "disc coil, whisker 0 (reference)"),
