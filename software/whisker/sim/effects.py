@@ -1,0 +1,252 @@
+"""The effect graph: which physical effects a scene needs, and why (the simulator's Principle 3).
+
+:func:`plan` reads a scene (and its design) and decides, effect by effect, whether to build it,
+with a one-line reason either way. The simulator builds exactly the effects marked ``built``;
+``whisker sim SCENE --explain`` prints the list. Effects and their dependencies:
+
+    kinematics   always: the whiskers are rigid rods on the membrane spring (whisker.sim.kinematics)
+    gravity      always: the rods' weight about the pivot (cheap, a few % of the membrane stiffness)
+    motion       the sensor follows a path with more than one pose
+    magnetics    some whisker is driven at a non-zero level            (needs kinematics)
+    heating      magnetics, and the drive would warm a coil by more than the threshold (needs magnetics)
+    contact      an object within reach of the tips along the path, or the tips reach the table,
+                 or fidelity.contact = "on" (MuJoCo: capsule whiskers, bodies, friction, gravity)
+    camera       the camera is on and frames, video or tracks are wanted (whisker.render)
+    tracking     the camera is built and tracks are wanted (whisker.tracking + whisker.geometry)
+    solver       static equilibrium when nothing moves, else time stepping (MuJoCo when contact)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from whisker.sim.scene import Scene, SceneError
+
+ORDER = ("kinematics", "gravity", "motion", "magnetics", "heating", "contact", "camera", "tracking", "solver")
+
+
+@dataclass(frozen=True)
+class Effect:
+    name: str
+    built: bool
+    reason: str
+    needs: tuple[str, ...] = ()
+    detail: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Plan:
+    effects: tuple[Effect, ...]
+    solver: str                   # "static", "free" (own integrator) or "mujoco"
+
+    def built(self, name: str) -> bool:
+        return any(e.name == name and e.built for e in self.effects)
+
+    def effect(self, name: str) -> Effect:
+        return next(e for e in self.effects if e.name == name)
+
+    @property
+    def names(self) -> list[str]:
+        return [e.name for e in self.effects if e.built]
+
+    def explain(self) -> str:
+        lines = []
+        for e in self.effects:
+            mark = "built  " if e.built else "skipped"
+            lines.append(f"{mark} {e.name:<11} {e.reason}")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        return {"solver": self.solver,
+                "effects": [{"name": e.name, "built": e.built, "reason": e.reason} for e in self.effects]}
+
+
+def levels_at(scene: Scene, n: int, t: float) -> np.ndarray:
+    """Signed duty of each of `n` whiskers at time t from the schedule (piecewise constant)."""
+    lv = np.zeros(n)
+    for ev in scene.actuation.schedule:
+        if ev.t > t:
+            break
+        idx = range(n) if ev.whiskers is None else ev.whiskers
+        for i in idx:
+            if not 0 <= i < n:
+                raise SceneError(f"actuation.schedule: whisker {i} does not exist (the design has {n})")
+            lv[i] = ev.level
+    return lv
+
+
+def pose_at(scene: Scene, t: float) -> np.ndarray:
+    """Sensor pose [x_mm, y_mm, tip_height_mm, yaw_deg] at time t (linear between waypoints)."""
+    p = np.asarray(scene.sensor.path, dtype=float)
+    if len(p) == 1:
+        return p[0, 1:].copy()
+    return np.array([np.interp(t, p[:, 0], p[:, k]) for k in range(1, 5)])
+
+
+def _path_samples(scene: Scene, duration: float) -> np.ndarray:
+    p = np.asarray(scene.sensor.path, dtype=float)
+    t_end = max(duration, p[-1, 0])
+    ts = np.unique(np.concatenate([p[:, 0], np.linspace(0, t_end, 200)]))
+    return np.array([pose_at(scene, t) for t in ts])
+
+
+def reach(design, body) -> tuple[float, float]:
+    """(largest horizontal tip radius, lowest tip drop) any whisker reaches within its stops, mm."""
+    s = math.sin(body.stop_rad)
+    return design.whiskers.ring_radius + design.l_u * s, 0.0
+
+
+def objects_in_reach(scene: Scene, design, margin_mm: float = 1.0) -> list[str]:
+    """Names of the objects a whisker can touch somewhere along the path.
+
+    A conservative bound: the object's bounding sphere (resting on the table) against the cylinder
+    the tips sweep (radius ring + l_u sin(stop)) from the tips' height down... up to the rods' whole
+    length above the tips (a rod can touch with its side).
+    """
+    if not scene.objects:
+        return []
+    duration = scene.scene.duration
+    poses = _path_samples(scene, duration)
+    r_reach = design.whiskers.ring_radius + design.l_u * math.sin(math.radians(35)) + margin_mm
+    out = []
+    for o in scene.objects:
+        rb = o.bounding_radius
+        if not math.isfinite(rb):
+            out.append(o.name)
+            continue
+        top = o.half_height + rb
+        horiz = np.hypot(poses[:, 0] - o.pos[0], poses[:, 1] - o.pos[1])
+        near = horiz <= r_reach + rb
+        low = poses[:, 2] <= top + margin_mm
+        if scene.sensor.facing == "up":
+            low = np.ones_like(low)
+        if np.any(near & low):
+            out.append(o.name)
+    return out
+
+
+def predicted_rise_K(scene: Scene, design) -> float:
+    """Largest coil temperature rise the schedule would cause (whisker.thermal), K."""
+    from whisker.sim.contract import coil_thermal, current_A
+
+    n = design.whiskers.count
+    volts = scene.actuation.voltage or design.actuation.voltage
+    th = coil_thermal(design)
+    T0 = th.ambient_C
+    duration = scene.scene.duration
+    if duration <= 0:
+        return 0.0
+    steps = 200
+    dt = duration / steps
+    T = np.full(n, T0)
+    for k in range(steps):
+        lv = levels_at(scene, n, k * dt)
+        I = np.abs(current_A(design, np.abs(lv) * volts, T))
+        T = np.array([th.step(float(T[i]), float(I[i]), dt) for i in range(n)])
+    return float(np.max(T - T0))
+
+
+def plan(scene: Scene, design) -> Plan:
+    """Decide the effects of `scene` and the solver, each with its reason."""
+    from whisker.sim.contract import MissingModule
+    from whisker.sim.kinematics import gravity_torque, whisker_body
+
+    fid = scene.fidelity
+    ex = scene.experiment.kind
+    mech = design.mechanics
+    n = design.whiskers.count
+    effects: list[Effect] = []
+    try:
+        body = whisker_body(design)
+    except MissingModule as err:  # explain still works; running will fail with this message
+        body, missing = None, str(err)
+    if body is not None:
+        effects.append(Effect("kinematics", True,
+                              f"{n} rigid rods about the pivot: k = {mech.rotational_stiffness:g} N*mm/rad, "
+                              f"zeta = {mech.damping_ratio:g}, J = {body.inertia_kgm2 * 1e9:.3g} g*mm^2, "
+                              f"f_n = {body.omega_n / (2 * math.pi):.3g} Hz"))
+        kg = abs(float(gravity_torque(body, 1.0, scene.sensor.facing))) / math.sin(1.0)
+        effects.append(Effect("gravity", True,
+                              f"rod + coil weight about the pivot: {kg * 1e3:.3g} N*mm/rad = "
+                              f"{100 * kg / body.stiffness:.2g} % of the membrane stiffness "
+                              f"({'restoring, hanging' if scene.sensor.facing == 'down' else 'destabilising, standing'})"))
+    else:
+        effects.append(Effect("kinematics", True, f"{n} rigid rods about the pivot (inertia unknown: {missing})"))
+        effects.append(Effect("gravity", True, "rod + coil weight about the pivot"))
+    moves = scene.sensor.moves or ex in ("grasp", "displacement", "classification")
+    effects.append(Effect("motion", moves,
+                          "the sensor follows a path (prescribed, like the UR16e)" if moves
+                          else "the sensor stays put (one pose)"))
+    acts = scene.acts
+    effects.append(Effect("magnetics", acts,
+                          f"coils driven (up to {max([abs(e.level) for e in scene.actuation.schedule] or [1.0]):g} x "
+                          f"{scene.actuation.voltage or design.actuation.voltage:g} V): force from whisker.magnetics "
+                          f"model {fid.magnetics!r}, torque about the pivot" if acts
+                          else "no actuation in the scene (every level is 0)", needs=("kinematics",)))
+    # heating
+    if not acts:
+        heat, why = False, "no coil is driven"
+    elif fid.heating == "on":
+        heat, why = True, "fidelity.heating = 'on'"
+    elif fid.heating == "off":
+        heat, why = False, "fidelity.heating = 'off'"
+    elif ex == "angle_vs_voltage" or scene.scene.duration <= 0:
+        heat, why = False, "static solve: no drive time for a coil to warm (steady angle at ambient)"
+    else:
+        try:
+            rise = predicted_rise_K(scene, design)
+        except MissingModule as err:
+            heat, why = False, f"cannot predict the coil's warming, run at ambient ({err})"
+        else:
+            heat = rise > fid.heating_threshold_K
+            why = (f"the schedule warms a coil by {rise:.2g} K "
+                   f"({'>' if heat else '<='} {fid.heating_threshold_K:g} K): resistance and current change "
+                   f"{'enough to matter' if heat else 'too little to matter'}")
+    effects.append(Effect("heating", heat, why, needs=("magnetics",)))
+    # contact
+    reachable = objects_in_reach(scene, design)
+    if fid.contact == "on":
+        contact, why = True, "fidelity.contact = 'on' (full model)"
+    elif reachable:
+        contact, why = True, (f"object(s) {', '.join(reachable)} within reach of the tips: MuJoCo capsule "
+                              f"whiskers (tip friction {mech.tip_friction:g}), bodies, friction, gravity")
+    elif scene.objects:
+        contact, why = False, (f"object(s) {', '.join(o.name for o in scene.objects)} out of reach of the "
+                               f"tips along the path")
+    else:
+        contact, why = False, "no objects in the scene"
+    tips_low = scene.table.enabled and scene.sensor.facing == "down" and min(
+        w[3] for w in scene.sensor.path) <= 0.0
+    if not contact and tips_low:
+        contact, why = True, "the tips reach the table top (tip height <= 0 mm on the path)"
+    effects.append(Effect("contact", contact, why, needs=("kinematics", "gravity")))
+    cam_wanted = scene.outputs.frames or scene.outputs.video or scene.outputs.tracks
+    cam = scene.camera.enabled and cam_wanted
+    effects.append(Effect("camera", cam,
+                          f"frames at {scene.camera.fps:g} fps, noise {scene.camera.noise_sigma:g}, blur "
+                          f"{scene.camera.blur_px:g} px (whisker.render)" if cam else
+                          ("camera off in the scene" if not scene.camera.enabled else
+                           "no frames, video or tracks asked for"), needs=("kinematics",)))
+    trk = cam and scene.outputs.tracks
+    effects.append(Effect("tracking", trk,
+                          f"tracks asked for: whisker.tracking method {scene.camera.method!r} + geometry"
+                          if trk else "no camera tracks asked for", needs=("camera",)))
+    # solver
+    static_ok = (not contact and not moves and not scene.actuation_changes
+                 and scene.scene.initial_tilt_deg == 0)
+    if fid.solver == "static" and not static_ok:
+        raise SceneError("fidelity.solver = 'static' but the scene moves (contact, path or a changing "
+                         "actuation level); use 'auto' or 'dynamic'")
+    if fid.solver == "static" or (fid.solver == "auto" and (static_ok or ex == "angle_vs_voltage")):
+        solver, why = "static", ("nothing moves (no contact, one pose, constant drive): "
+                                 "static equilibrium solve instead of time stepping")
+    elif contact:
+        solver, why = "mujoco", f"contact: MuJoCo time stepping, dt = {scene.scene.timestep:g} s"
+    else:
+        solver, why = "free", (f"whiskers move without contact: {fid.integrator} spring-damper "
+                               f"integrator, dt = {scene.scene.timestep:g} s")
+    effects.append(Effect("solver", True, f"{solver}: {why}"))
+    return Plan(effects=tuple(effects), solver=solver)

@@ -1,0 +1,289 @@
+"""The scene model: what a simulation contains, read from a TOML file and validated.
+
+A scene names the design (file + overrides), the objects on the table, the prescribed path of the
+sensor (like the UR16e arm in the paper), the actuation schedule, the camera, the duration, the
+outputs wanted and, optionally, an experiment that repeats the scene with variations (the paper's
+figures and tables). Every value has a unit in its description; a bad scene is refused with one
+line naming the offending key (:class:`SceneError`).
+
+Conventions (see docs/sim.md):
+- the sensor frame is the design's frame (z = 0 the membrane's lower face, whiskers along +z);
+- the world has the table top at z = 0, z up; ``sensor.facing = "down"`` (the grasp pose) turns the
+  sensor so its whiskers point down;
+- a path waypoint is ``[t_s, x_mm, y_mm, tip_height_mm, yaw_deg]``: the sensor axis at (x, y), the
+  resting whisker tips ``tip_height_mm`` above the table top, the sensor turned ``yaw_deg`` about the
+  vertical; between waypoints the pose moves linearly (the arm's linear moves);
+- an actuation event ``{t = s, level = l, whiskers = [...]}`` sets the signed duty ``l`` in [-1, 1]
+  (+ retracts, tips toward the centre) of the listed whiskers (default all) from time t on; level 1
+  is ``actuation.voltage`` volts at the coil (default: the design's ``actuation.voltage``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+    import tomli as tomllib  # type: ignore[no-redef]
+
+
+class SceneError(ValueError):
+    """A scene that cannot be simulated. The message is one line naming the key(s)."""
+
+
+class _S(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class SceneInfo(_S):
+    name: str = "scene"
+    description: str = ""
+    duration: float = Field(0.0, ge=0, le=3600, description="s of simulated time (0: static)")
+    timestep: float = Field(1e-3, gt=0, le=0.05, description="s, integration step")
+    seed: int = Field(0, ge=0, description="random seed (placement noise, camera noise)")
+    initial_tilt_deg: float = Field(0.0, ge=-45, le=45,
+                                    description="deg, radial tilt of every whisker at t = 0 (a pluck)")
+
+
+class DesignRef(_S):
+    file: str = Field("", description="design TOML, relative to the scene file; empty: hw/sensor.toml")
+    set: list[str] = Field(default_factory=list, description="section.key=value overrides")
+
+
+class Sensor(_S):
+    facing: Literal["down", "up"] = "down"
+    path: list[list[float]] = Field(
+        default_factory=lambda: [[0.0, 0.0, 0.0, 20.0, 0.0]],
+        description="waypoints [t_s, x_mm, y_mm, tip_height_mm, yaw_deg], times increasing")
+
+    @field_validator("path")
+    @classmethod
+    def _path(cls, v: list[list[float]]) -> list[list[float]]:
+        if not v:
+            raise ValueError("needs at least one waypoint [t_s, x_mm, y_mm, tip_height_mm, yaw_deg]")
+        for i, w in enumerate(v):
+            if len(w) != 5:
+                raise ValueError(f"waypoint {i} has {len(w)} values, expected 5 [t, x, y, tip_height, yaw]")
+        ts = [w[0] for w in v]
+        if any(b <= a for a, b in zip(ts, ts[1:])) or ts[0] < 0:
+            raise ValueError(f"waypoint times must start at >= 0 and increase strictly (got {ts})")
+        return v
+
+    @property
+    def moves(self) -> bool:
+        return any(w[1:] != self.path[0][1:] for w in self.path)
+
+
+class Table(_S):
+    enabled: bool = True
+    friction: float = Field(0.5, ge=0, le=10, description="Coulomb coefficient of the table top")
+
+
+Shape = Literal["sphere", "ellipsoid", "box", "cylinder", "capsule", "mesh"]
+_SIZE_COUNT = {"sphere": 1, "ellipsoid": 3, "box": 3, "cylinder": 2, "capsule": 2, "mesh": 1}
+
+
+class SceneObject(_S):
+    name: str
+    shape: Shape = "sphere"
+    size: list[float] = Field(description="mm: sphere [r]; ellipsoid/box [a, b, c] half-sizes; "
+                                          "cylinder/capsule [r, half-length]; mesh [scale]")
+    mass: float = Field(gt=0, le=5000, description="g")
+    friction: float = Field(0.5, ge=0, le=10, description="Coulomb coefficient")
+    pos: list[float] = Field(default_factory=lambda: [0.0, 0.0], description="[x, y] mm on the table")
+    yaw: float = Field(0.0, description="deg about the vertical")
+    mesh: str = Field("", description="mesh file (STL/OBJ), relative to the scene file")
+
+    @model_validator(mode="after")
+    def _check(self) -> "SceneObject":
+        n = _SIZE_COUNT[self.shape]
+        if len(self.size) != n:
+            raise ValueError(f"object {self.name!r}: shape {self.shape} needs {n} size value(s), got {len(self.size)}")
+        if any(not s > 0 for s in self.size):
+            raise ValueError(f"object {self.name!r}: sizes must be > 0 mm (got {self.size})")
+        if len(self.pos) != 2:
+            raise ValueError(f"object {self.name!r}: pos is [x, y] in mm (got {self.pos})")
+        if self.shape == "mesh" and not self.mesh:
+            raise ValueError(f"object {self.name!r}: shape mesh needs mesh = 'file.stl'")
+        return self
+
+    @property
+    def half_height(self) -> float:
+        """Height of the object's centre above the table when resting upright, mm."""
+        s = self.size
+        if self.shape == "sphere":
+            return s[0]
+        if self.shape in ("ellipsoid", "box"):
+            return s[2]
+        if self.shape == "cylinder":
+            return s[1]
+        if self.shape == "capsule":
+            return s[1] + s[0]
+        return 0.0
+
+    @property
+    def bounding_radius(self) -> float:
+        """Radius of a sphere containing the object, mm (mesh: unknown before loading -> inf)."""
+        s = self.size
+        if self.shape == "mesh":
+            return float("inf")
+        if self.shape == "sphere":
+            return s[0]
+        if self.shape in ("ellipsoid",):
+            return max(s)
+        if self.shape == "box":
+            return (s[0] ** 2 + s[1] ** 2 + s[2] ** 2) ** 0.5
+        return (s[0] ** 2 + s[1] ** 2) ** 0.5 + (s[0] if self.shape == "capsule" else 0.0)
+
+
+class ActEvent(_S):
+    t: float = Field(ge=0, description="s")
+    level: float = Field(ge=-1, le=1, description="signed duty, + retracts")
+    whiskers: list[int] | None = Field(None, description="whisker indices; default all")
+
+
+class ActuationSpec(_S):
+    voltage: float | None = Field(None, gt=0, le=48, description="V at the coil for level 1 (default: design)")
+    schedule: list[ActEvent] = Field(default_factory=list)
+
+    @field_validator("schedule")
+    @classmethod
+    def _sorted(cls, v: list[ActEvent]) -> list[ActEvent]:
+        ts = [e.t for e in v]
+        if ts != sorted(ts):
+            raise ValueError(f"events must be in time order (got t = {ts})")
+        return v
+
+
+class CameraSpec(_S):
+    enabled: bool = False
+    fps: float = Field(30.0, gt=0, le=1000, description="frames per second")
+    noise_sigma: float = Field(2.0, ge=0, le=100, description="grey levels of Gaussian noise")
+    blur_px: float = Field(0.8, ge=0, le=20, description="px, Gaussian blur sigma")
+    method: str = Field("paper", description="tracking method (whisker.tracking)")
+
+
+class Outputs(_S):
+    tracks: bool = True
+    frames: bool = False
+    video: bool = False
+    plots: bool = True
+    summary: bool = True
+
+
+class Fidelity(_S):
+    magnetics: str = Field("table", description="whisker.magnetics model name")
+    heating: Literal["auto", "on", "off"] = "auto"
+    heating_threshold_K: float = Field(0.5, gt=0, description="K of predicted coil rise that turns heating on")
+    contact: Literal["auto", "on"] = Field("auto", description="'on' builds MuJoCo even without objects")
+    solver: Literal["auto", "static", "dynamic"] = "auto"
+    integrator: Literal["implicit", "euler"] = "implicit"
+
+
+class Experiment(_S):
+    """Repeat the scene with variations (the paper's experiments); see whisker.sim.experiments."""
+    kind: Literal["none", "angle_vs_voltage", "grasp", "displacement", "classification"] = "none"
+    voltages: list[float] = Field(default_factory=list, description="V, angle_vs_voltage")
+    configurations: list[list[int]] = Field(default_factory=list,
+                                            description="grasp: whisker index sets, e.g. [[0..7],[0,2,4,6],[0,4]]")
+    attempts: int = Field(20, ge=1, le=10000)
+    placement_noise: float = Field(2.0, ge=0, le=50, description="mm, std of the object's (x, y) placement")
+    yaw_noise: float = Field(180.0, ge=0, le=360, description="deg, uniform half-range of object yaw")
+    lift: float = Field(30.0, ge=0, le=500, description="mm the sensor rises after closing")
+    hold_height: float = Field(5.0, ge=0, description="mm above the table counted as held at the end")
+    objects: list[str] = Field(default_factory=list, description="object names to use (default all)")
+    trials: int = Field(5, ge=1, le=1000)
+    distances: list[float] = Field(default_factory=lambda: [30.0, 10.0],
+                                   description="mm, classification: sensor axis to object centre")
+    directions: int = Field(4, ge=1, le=16, description="classification: approach directions")
+    rotations: list[float] = Field(default_factory=lambda: [0.0, 60.0, 120.0, 180.0, 240.0, 300.0],
+                                   description="deg, classification: sensor rotations")
+    tip_height: float = Field(3.0, ge=0, description="mm, tips above the table (classification/grasp)")
+
+
+class Scene(_S):
+    scene: SceneInfo = SceneInfo()
+    design: DesignRef = DesignRef()
+    sensor: Sensor = Sensor()
+    table: Table = Table()
+    objects: list[SceneObject] = Field(default_factory=list)
+    actuation: ActuationSpec = ActuationSpec()
+    camera: CameraSpec = CameraSpec()
+    outputs: Outputs = Outputs()
+    fidelity: Fidelity = Fidelity()
+    experiment: Experiment = Experiment()
+    base_dir: str = Field(".", description="folder relative paths resolve against (set by load_scene)")
+
+    @model_validator(mode="after")
+    def _names(self) -> "Scene":
+        names = [o.name for o in self.objects]
+        if len(set(names)) != len(names):
+            raise ValueError(f"object names must be unique (got {names})")
+        for n in self.experiment.objects:
+            if n not in names:
+                raise ValueError(f"experiment.objects names {n!r}, which is not an object of the scene")
+        return self
+
+    # --- derived -------------------------------------------------------------------------------
+    @property
+    def acts(self) -> bool:
+        return any(e.level != 0 for e in self.actuation.schedule) or self.experiment.kind in (
+            "angle_vs_voltage", "grasp", "displacement")
+
+    @property
+    def actuation_changes(self) -> bool:
+        """True when a level changes after t = 0 (so the whiskers move)."""
+        return any(e.t > 0 for e in self.actuation.schedule)
+
+    def with_(self, **changes: Any) -> "Scene":
+        """A copy with top-level sections replaced (validated again)."""
+        data = self.model_dump()
+        data.update({k: (v.model_dump() if isinstance(v, BaseModel) else v) for k, v in changes.items()})
+        return scene_from_dict(data)
+
+
+def _one_line(err: ValidationError) -> str:
+    msgs = []
+    for e in err.errors():
+        loc = ".".join(str(p) for p in e["loc"])
+        msg = e["msg"].removeprefix("Value error, ")
+        inp = e.get("input")
+        shown = "" if isinstance(inp, dict) else f" (got {inp!r})"
+        msgs.append(f"{loc}: {msg}{shown}" if loc else msg)
+    return "; ".join(msgs)
+
+
+def scene_from_dict(data: dict[str, Any]) -> Scene:
+    try:
+        return Scene.model_validate(data)
+    except ValidationError as err:
+        raise SceneError(_one_line(err)) from None
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene TOML file. Raises :class:`SceneError` (one line) when it is bad."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise SceneError(f"scene file not found: {path}") from None
+    except tomllib.TOMLDecodeError as err:
+        raise SceneError(f"{path}: not valid TOML: {err}") from None
+    data.setdefault("base_dir", str(path.resolve().parent))
+    return scene_from_dict(data)
+
+
+def scene_design(scene: Scene, extra_overrides: tuple[str, ...] = ()):
+    """The validated Design the scene names (file relative to the scene, then overrides)."""
+    from whisker.design import DesignError, load_design
+
+    f = scene.design.file
+    path = (Path(scene.base_dir) / f) if f else None
+    try:
+        return load_design(path, [*scene.design.set, *extra_overrides])
+    except DesignError as err:
+        raise SceneError(f"design: {err}") from None

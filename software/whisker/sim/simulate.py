@@ -1,0 +1,165 @@
+"""Run one scene with exactly the effects its plan builds (static solve, own integrator or MuJoCo).
+
+:func:`simulate` returns a :class:`Result` (arrays, SI angles, mm positions); I/O lives in
+whisker.sim.run (the run folder) and the CLI.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from whisker.sim.effects import Plan, levels_at, plan as make_plan, pose_at
+from whisker.sim.kinematics import (WhiskerBody, energy_J, gravity_torque, magnetic_torque,
+                                    marker_positions_mm, static_equilibrium, step_free,
+                                    tip_positions_mm, whisker_body)
+from whisker.sim.scene import Scene, SceneError
+
+
+class SimulationError(RuntimeError):
+    """The run became non-physical (NaN, energy blow-up); one line saying what and when."""
+
+
+@dataclass
+class Result:
+    plan: Plan
+    t_s: np.ndarray                     # (T,)
+    theta_rad: np.ndarray               # (T, N, 2): radial (+ retract), tangential
+    tips_mm: np.ndarray                 # (T, N, 3) sensor frame
+    markers_mm: np.ndarray              # (T, N, 3) sensor frame
+    energy_J: np.ndarray                # (T,) whiskers' mechanical energy
+    levels: np.ndarray                  # (T, N)
+    temperature_C: np.ndarray | None = None   # (T, N) when heating is built
+    objects_mm: np.ndarray | None = None      # (T, M, 3) world positions of the objects
+    object_names: list[str] = field(default_factory=list)
+    sensor_pose: np.ndarray | None = None     # (T, 4) x, y, tip height, yaw
+    contacts: np.ndarray | None = None        # (T,) number of active contacts
+    steps: int = 0
+    info: dict = field(default_factory=dict)
+
+    @property
+    def theta_deg(self) -> np.ndarray:
+        return np.degrees(self.theta_rad)
+
+
+def _check_finite(name: str, arr, t: float) -> None:
+    if not np.all(np.isfinite(arr)):
+        raise SimulationError(f"{name} became non-finite at t = {t:.4g} s (time step too large or a "
+                              f"broken parameter); try a smaller scene.timestep")
+
+
+class Drive:
+    """Currents of the coils from levels, with the coil heating when the plan builds it."""
+
+    def __init__(self, scene: Scene, design, plan: Plan):
+        self.scene, self.design = scene, design
+        self.volts = scene.actuation.voltage or design.actuation.voltage
+        self.on = plan.built("magnetics")
+        self.heating = plan.built("heating")
+        n = design.whiskers.count
+        self.thermal = None
+        if self.heating:
+            from whisker.sim.contract import coil_thermal
+            self.thermal = coil_thermal(design)
+            self.T = np.full(n, float(self.thermal.ambient_C))
+        else:
+            self.T = np.full(n, 20.0)
+        self.model = scene.fidelity.magnetics
+
+    def currents(self, levels: np.ndarray) -> np.ndarray:
+        from whisker.sim.contract import current_A
+        if not self.on:
+            return np.zeros_like(levels)
+        return current_A(self.design, levels * self.volts, self.T)
+
+    def heat(self, I: np.ndarray, dt: float) -> None:
+        if self.thermal is not None:
+            self.T = np.array([self.thermal.step(float(T), float(abs(i)), dt) for T, i in zip(self.T, I)])
+            _check_finite("coil temperature", self.T, 0.0)
+
+    def torque(self, body: WhiskerBody, theta_r, I) -> np.ndarray:
+        if not self.on:
+            return np.zeros_like(theta_r)
+        return magnetic_torque(self.design, body, theta_r, I, self.model)
+
+
+def simulate(scene: Scene, design=None, plan: Plan | None = None, progress=None,
+             record_hz: float = 200.0, body: WhiskerBody | None = None) -> Result:
+    """Simulate `scene`; `progress(fraction)` is called now and then for long runs."""
+    from whisker.sim.scene import scene_design
+
+    design = design if design is not None else scene_design(scene)
+    plan = plan if plan is not None else make_plan(scene, design)
+    body = body if body is not None else whisker_body(design)
+    if plan.solver == "static":
+        return _static(scene, design, plan, body)
+    if plan.solver == "free":
+        return _free(scene, design, plan, body, progress, record_hz)
+    from whisker.sim.mj import run_mujoco
+    return run_mujoco(scene, design, plan, body, progress, record_hz)
+
+
+def _static(scene, design, plan, body) -> Result:
+    n = design.whiskers.count
+    lv = levels_at(scene, n, 0.0)
+    drive = Drive(scene, design, plan)
+    I = drive.currents(lv)
+    theta = np.zeros((1, n, 2))
+    if drive.on:
+        eq = static_equilibrium(design, body, I, facing=scene.sensor.facing, model=scene.fidelity.magnetics)
+        theta[0, :, 0] = eq.theta_rad
+    return _pack(plan, design, body, scene, np.zeros(1), theta, np.zeros_like(theta), lv[None], steps=0)
+
+
+def _free(scene, design, plan, body, progress, record_hz) -> Result:
+    n = design.whiskers.count
+    dt = scene.scene.timestep
+    duration = scene.scene.duration
+    if duration <= 0:
+        raise SceneError("scene.duration must be > 0 s for time stepping (or let nothing move for a static solve)")
+    method = scene.fidelity.integrator
+    if method == "euler" and dt * body.omega_n >= 2.0:
+        raise SceneError(f"scene.timestep {dt:g} s is beyond the explicit integrator's stability limit "
+                         f"2/omega_n = {2 / body.omega_n:.3g} s; use fidelity.integrator = 'implicit' or a smaller step")
+    steps = int(math.ceil(duration / dt - 1e-9))
+    every = max(1, int(round(1.0 / (record_hz * dt))))
+    drive = Drive(scene, design, plan)
+    theta = np.zeros((n, 2))
+    theta[:, 0] = math.radians(scene.scene.initial_tilt_deg)
+    omega = np.zeros((n, 2))
+    facing = scene.sensor.facing
+    rec_t, rec_th, rec_om, rec_lv, rec_T = [], [], [], [], []
+    # event times are honoured exactly: levels are sampled at the start of each step
+    for k in range(steps + 1):
+        t = k * dt
+        lv = levels_at(scene, n, t)
+        if k % every == 0 or k == steps:
+            rec_t.append(t); rec_th.append(theta.copy()); rec_om.append(omega.copy()); rec_lv.append(lv)
+            rec_T.append(drive.T.copy())
+            if progress and k % (every * 50) == 0:
+                progress(k / steps)
+        if k == steps:
+            break
+        I = drive.currents(lv)
+        tau = np.zeros((n, 2))
+        tau[:, 0] = drive.torque(body, theta[:, 0], I)
+        tau += gravity_torque(body, theta, facing)
+        theta, omega = step_free(body, theta, omega, tau, dt, method)
+        drive.heat(I, dt)
+        _check_finite("whisker tilt", theta, t)
+    res = _pack(plan, design, body, scene, np.array(rec_t), np.array(rec_th), np.array(rec_om),
+                np.array(rec_lv), steps=steps)
+    if drive.heating:
+        res.temperature_C = np.array(rec_T)
+    return res
+
+
+def _pack(plan, design, body, scene, t, theta, omega, levels, steps) -> Result:
+    e = energy_J(body, theta, omega, scene.sensor.facing).sum(axis=-1)   # (T,) all whiskers
+    _check_finite("energy", e, float(t[-1]) if len(t) else 0.0)
+    poses = np.array([pose_at(scene, float(x)) for x in t])
+    return Result(plan=plan, t_s=t, theta_rad=theta, tips_mm=tip_positions_mm(design, theta),
+                  markers_mm=marker_positions_mm(design, theta), energy_J=e, levels=levels,
+                  sensor_pose=poses, steps=steps)
