@@ -233,7 +233,6 @@ class Bom(_Section):
     ecoflex_waste: float = Field(ge=0, le=5, description="fraction of Ecoflex added (cup, sprue, vents)")
     pla_waste: float = Field(ge=0, le=5, description="fraction of PLA added (brim, purge, failed prints)")
     led_cut_pitch: float = Field(gt=0, description="mm between the LED strip's cut marks")
-    pla_density: float = Field(gt=0, description="g/cm^3 of the printed PLA")
 
 
 class Tracking(_Section):
