@@ -1,0 +1,216 @@
+"""Lumped thermal model of one coil: temperature against time, time to the first limit, safe duty.
+
+One node (copper + enamel + the core in the bore, the carbon-fibre rod) at temperature T:
+
+    C dT/dt = I^2 R(T) - h A (T - Ta) - eps sigma A (T^4 - Ta^4) - G_rod (T - Ta)
+
+R(T) = R20 (1 + 0.00393 (T - 20)) (copper, IEC 60028). Driven at constant VOLTAGE the power falls as
+the coil warms (V^2/R(T)); at constant CURRENT it rises (thermal runaway is possible). A = the
+coil's outer surface (side + both annular faces), h = [thermal] convection_coefficient,
+eps = [thermal] emissivity, G_rod = [thermal] rod_conductance. Skipped (Principle 3): the gradient
+inside the winding (Biot number h*r/k_winding ~ 1e-3, negligible), heating of the surroundings.
+
+Limits ("whichever is lowest"): the magnet's maximum working temperature ([magnet]
+max_temperature), PLA softening ([thermal] pla_softening), the enamel's thermal class ([thermal]
+enamel_class). They are applied to the COIL temperature: conservative for the magnet and the PLA,
+which sit across the gap and warm more slowly than the coil.
+
+Heat capacity and resistance follow the design's measured resistance by default: the wire length is
+R / (ohm per m), so a coil that measures 7 ohm has the copper of 7 ohm of wire.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from whisker import coil as _coil
+
+SIGMA = 5.670374419e-8  # W/(m^2 K^4), Stefan-Boltzmann
+KELVIN = 273.15
+
+
+@dataclass(frozen=True)
+class Limits:
+    magnet_C: float
+    pla_C: float
+    enamel_C: float
+
+    @property
+    def lowest(self) -> tuple[str, float]:
+        items = {"magnet max temperature": self.magnet_C, "PLA softening": self.pla_C,
+                 "enamel class": self.enamel_C}
+        name = min(items, key=items.get)
+        return name, items[name]
+
+
+class CoilThermal:
+    """Lumped coil thermal model built from a design. Units: C, A, s, W, J/K."""
+
+    def __init__(self, design, source: str = "measured"):
+        c, th = design.coil, design.thermal
+        self.design = design
+        self.source = source
+        self.ambient_C = float(th.ambient)
+        self.limits = Limits(float(design.magnet.max_temperature), float(th.pla_softening),
+                             float(th.enamel_class))
+        self.limit_name, self.limit_C = self.limits.lowest
+        self.r20_ohm = float(_coil.resistance_ohm(design, 20.0, source=source))
+        d = c.wire_diameter
+        a_cu = math.pi * d * d / 4.0
+        length_mm = self.r20_ohm / _coil.ohm_per_m(d) * 1000.0
+        do = _coil.enamel_overall_diameter_mm(d, design.winding.enamel_grade)
+        self.copper_mass_g = length_mm * a_cu * _coil.COPPER_DENSITY_G_CM3 / 1000.0
+        enamel_mass = length_mm * math.pi * (do * do - d * d) / 4.0 * _coil.ENAMEL_DENSITY_G_CM3 / 1000.0
+        core_mass = math.pi * (c.inner_diameter / 2.0) ** 2 * c.length * design.mechanics.rod_density / 1000.0
+        self.heat_capacity_J_per_K = (self.copper_mass_g * _coil.COPPER_SPECIFIC_HEAT
+                                      + enamel_mass * _coil.ENAMEL_SPECIFIC_HEAT
+                                      + core_mass * th.former_specific_heat)
+        ro, ri = c.outer_diameter / 2.0, c.inner_diameter / 2.0
+        self.area_m2 = (2.0 * math.pi * ro * c.length + 2.0 * math.pi * (ro * ro - ri * ri)) * 1e-6
+        self.h = float(th.convection_coefficient)
+        self.emissivity = float(th.emissivity)
+        self.g_rod = float(th.rod_conductance)
+
+    # ---- physics ----------------------------------------------------------------------------
+    def resistance(self, T):
+        return self.r20_ohm * _coil.temperature_factor(T)
+
+    def loss_W(self, T):
+        """Heat leaving the coil at temperature T, W (convection + radiation + rod)."""
+        T = np.asarray(T, dtype=float)
+        ta = self.ambient_C
+        rad = self.emissivity * SIGMA * self.area_m2 * ((T + KELVIN) ** 4 - (ta + KELVIN) ** 4)
+        return (self.h * self.area_m2 + self.g_rod) * (T - ta) + rad
+
+    def conductance_W_per_K(self, T):
+        """dLoss/dT at T, W/K."""
+        T = np.asarray(T, dtype=float)
+        return self.h * self.area_m2 + self.g_rod + 4.0 * self.emissivity * SIGMA * self.area_m2 * (T + KELVIN) ** 3
+
+    @property
+    def time_constant_s(self) -> float:
+        """Cooling time constant near ambient, s (C / G)."""
+        return self.heat_capacity_J_per_K / float(self.conductance_W_per_K(self.ambient_C))
+
+    def _rate(self, T, power):
+        return (power - self.loss_W(T)) / self.heat_capacity_J_per_K
+
+    def step(self, temperature_C: float, current_A: float, dt_s: float) -> float:
+        """Temperature after dt_s at a constant current, C. Exponential-Euler sub-steps (exact for
+        the linearised ODE), stable for any dt; refuses non-finite or negative inputs."""
+        T, I, dt = float(temperature_C), float(current_A), float(dt_s)
+        if not (math.isfinite(T) and math.isfinite(I) and math.isfinite(dt)) or dt < 0:
+            raise ValueError(f"CoilThermal.step: need finite temperature/current and dt >= 0 "
+                             f"(got {temperature_C!r}, {current_A!r}, {dt_s!r})")
+        if dt == 0.0:
+            return T
+        n = max(1, int(math.ceil(dt / (0.1 * self.time_constant_s))))
+        h = dt / n
+        C = self.heat_capacity_J_per_K
+        for _ in range(n):
+            p = I * I * float(self.resistance(T))
+            a = (p - float(self.loss_W(T))) / C                       # dT/dt at T
+            b = (I * I * self.r20_ohm * _coil.ALPHA20_PER_K - float(self.conductance_W_per_K(T))) / C
+            x = b * h
+            if abs(x) < 1e-8:
+                T = T + a * h
+            else:
+                T = T + a * math.expm1(min(x, 50.0)) / b
+            T = min(T, 5000.0)  # physically meaningless beyond; keeps runaway finite
+        return T
+
+    def step_voltage(self, temperature_C: float, volts: float, dt_s: float, duty: float = 1.0) -> float:
+        """Temperature after dt_s at a constant voltage across the coil and a PWM duty (mean power
+        duty * V^2/R(T); valid for PWM periods << the thermal time constant)."""
+        T, dt = float(temperature_C), float(dt_s)
+        n = max(1, int(math.ceil(dt / (0.05 * self.time_constant_s))))
+        h = dt / n
+        for _ in range(n):
+            i_rms = math.sqrt(duty) * volts / float(self.resistance(T))
+            T = self.step(T, i_rms, h)
+        return T
+
+    # ---- answers ----------------------------------------------------------------------------
+    def steady_state_C(self, volts: float, duty: float = 1.0) -> float:
+        """Steady temperature at a constant voltage and duty, C."""
+        from scipy.optimize import brentq
+
+        def f(T):
+            return duty * volts * volts / float(self.resistance(T)) - float(self.loss_W(T))
+
+        if volts == 0 or duty == 0:
+            return self.ambient_C
+        return float(brentq(f, self.ambient_C, 5000.0))
+
+    def temperature_curve(self, volts: float, t_end_s: float, duty: float = 1.0, points: int = 400):
+        """(t_s, T_C) arrays at constant voltage from ambient."""
+        t = np.linspace(0.0, float(t_end_s), int(points))
+        T = np.empty_like(t)
+        T[0] = self.ambient_C
+        for i in range(1, len(t)):
+            T[i] = self.step_voltage(T[i - 1], volts, t[i] - t[i - 1], duty)
+        return t, T
+
+    def time_to_C(self, target_C: float, volts: float, duty: float = 1.0) -> float:
+        """Seconds at constant voltage from ambient until the coil reaches target_C (math.inf if never)."""
+        from scipy.optimize import brentq
+
+        if target_C <= self.ambient_C:
+            return 0.0
+        if self.steady_state_C(volts, duty) <= target_C:
+            return math.inf
+        # integrate dt = C dT / (P - loss) over T: smooth and exact for the lumped model
+        def rate(T):
+            return duty * volts * volts / float(self.resistance(T)) - float(self.loss_W(T))
+
+        x, w = np.polynomial.legendre.leggauss(64)
+        T = self.ambient_C + (target_C - self.ambient_C) * (x + 1.0) / 2.0
+        r = np.array([rate(Ti) for Ti in T])
+        del brentq
+        return float(self.heat_capacity_J_per_K * np.sum(w / r) * (target_C - self.ambient_C) / 2.0)
+
+    def safe_duty(self, volts: float, margin_C: float = 0.0) -> float:
+        """Highest PWM duty (0..1) whose steady temperature stays at the lowest limit minus margin_C."""
+        t_lim = self.limit_C - margin_C
+        if t_lim <= self.ambient_C:
+            return 0.0
+        if volts == 0:
+            return 1.0
+        d = float(self.loss_W(t_lim)) * float(self.resistance(t_lim)) / (volts * volts)
+        return min(1.0, d)
+
+
+def time_to_limit_s(design, volts: float, duty: float = 1.0) -> float:
+    """Seconds at `volts` across the coil from ambient until the lowest thermal limit (inf if never)."""
+    th = CoilThermal(design)
+    return th.time_to_C(th.limit_C, volts, duty)
+
+
+def safe_duty(design, volts: float) -> float:
+    """Highest continuous PWM duty at `volts` that keeps the coil at or below the lowest limit."""
+    return CoilThermal(design).safe_duty(volts)
+
+
+def summary(design, volts: float) -> dict:
+    """Everything the report prints about heating at `volts` (finite numbers or None for 'never')."""
+    th = CoilThermal(design)
+    times = {}
+    for name, lim in (("magnet", th.limits.magnet_C), ("pla", th.limits.pla_C), ("enamel", th.limits.enamel_C)):
+        t = th.time_to_C(lim, volts)
+        times[name] = None if math.isinf(t) else t
+    t_first = th.time_to_C(th.limit_C, volts)
+    return {
+        "volts": volts, "ambient_C": th.ambient_C, "limit_C": th.limit_C, "limit": th.limit_name,
+        "heat_capacity_J_per_K": th.heat_capacity_J_per_K, "copper_mass_g": th.copper_mass_g,
+        "surface_mm2": th.area_m2 * 1e6, "conductance_W_per_K": float(th.conductance_W_per_K(th.ambient_C)),
+        "time_constant_s": th.time_constant_s,
+        "power_cold_W": volts * volts / float(th.resistance(th.ambient_C)),
+        "heating_rate_cold_K_per_s": volts * volts / float(th.resistance(th.ambient_C)) / th.heat_capacity_J_per_K,
+        "steady_state_C": th.steady_state_C(volts),
+        "time_to_first_limit_s": None if math.isinf(t_first) else t_first,
+        "time_to_limit_s": times,
+        "safe_duty": th.safe_duty(volts),
+    }
