@@ -8,7 +8,7 @@ faster for real-time watchdog tests. Where the real modules exist, `coil_model(d
 
 from __future__ import annotations
 
-import math
+import numpy as np
 
 ALPHA_CU = 0.00393  # 1/K, copper
 
@@ -36,7 +36,7 @@ class DoubleThermal:
         p = current_A ** 2 * r
         t_inf = self.ambient_C + p * self.rth
         tau = self.rth * self.c
-        return t_inf + (temperature_C - t_inf) * math.exp(-dt_s / tau)
+        return t_inf + (temperature_C - t_inf) * np.exp(-dt_s / tau)
 
 
 def coil_model(design):

@@ -1,0 +1,227 @@
+"""The thermal guard: a coil held on is limited and cut before its limit; ratings are refused."""
+
+from __future__ import annotations
+
+import json
+import time
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from test_actuation_doubles import DoubleThermal, FakeClock, coil_model, double_current_A
+from whisker.actuation import Actuator, mock_backend
+from whisker.design import default_design
+from whisker.guard import (RatingError, ThermalGuard, check_driver, check_levels, max_level,
+                           volts_to_levels)
+
+
+@pytest.fixture(scope="module")
+def design():
+    return default_design()
+
+
+def hold(guard, clock, levels, seconds, dt=0.02):
+    """Request `levels` every dt for `seconds`; return times, temperatures and allowed levels."""
+    ts, temps, allowed = [], [], []
+    for _ in range(int(round(seconds / dt))):
+        a = guard.allow(levels, clock.advance(dt))
+        ts.append(clock.t)
+        temps.append(guard.temperatures.copy())
+        allowed.append(a)
+    return np.array(ts), np.array(temps), np.array(allowed)
+
+
+def test_cut_before_limit_then_hysteresis(design):
+    clock = FakeClock()
+    thermal, current = coil_model(design)
+    g = ThermalGuard(design, thermal=thermal, current_fn=current, clock=clock, policy="cut")
+    levels = np.zeros(8)
+    levels[2] = 1.0  # coil 2 held at full level, the others off
+    ts, temps, allowed = hold(g, clock, levels, 120.0)
+    on = allowed[:, 2] > 0
+    first_cut = int(np.argmin(on))
+    assert on[0] and not on[first_cut], "the coil was never cut"
+    # cut just before the cut-off (one update ahead), never past it, not before it was needed
+    assert temps[:, 2].max() <= g.cut_C + 1e-9
+    assert temps[first_cut, 2] < g.cut_C <= g.predict(levels, 0.02 + 1e-9)[2] or \
+        temps[first_cut, 2] >= g.cut_C - 1.0
+    assert temps[first_cut, 2] > g.cut_C - 1.0
+    # off until it has cooled below cut - hysteresis, then allowed again (duty cycling)
+    off_run = temps[first_cut:, 2][~on[first_cut:]]
+    resume = first_cut + int(np.argmax(on[first_cut:]))
+    assert resume > first_cut and temps[resume, 2] < g.resume_C <= temps[resume - 1, 2]
+    assert off_run.min() < g.resume_C + 0.5
+    assert g.trips[2] >= 2 and np.all(g.trips[[0, 1, 3, 4, 5, 6, 7]] == 0)
+    # untouched coils stay at ambient
+    assert np.allclose(temps[:, [0, 1, 3, 4, 5, 6, 7]], g.ambient_C)
+
+
+def test_cut_time_matches_the_model(design):
+    """The guard's estimate is the coil model's: the cut comes when the model reaches cut_C."""
+    clock = FakeClock()
+    thermal, current = coil_model(design)
+    g = ThermalGuard(design, thermal=thermal, current_fn=current, clock=clock, policy="cut")
+    ts, temps, allowed = hold(g, clock, np.full(8, 1.0), 60.0, dt=0.01)
+    t_cut = ts[int(np.argmin(allowed[:, 0] > 0))]
+    # reference: the thermal model stepped directly with the full-duty current
+    t, temp, vfs = 0.0, thermal.ambient_C, design.drive.full_scale_voltage
+    while temp < g.cut_C:
+        temp = thermal.step(temp, current(design, vfs, temp), 0.001)
+        t += 0.001
+    # the guard cuts one guard period (0.02 s) ahead of the model's crossing, within one 0.01 s update
+    assert t_cut == pytest.approx(t - design.drive.guard_period, abs=0.02)
+    assert temps.max() <= g.cut_C + 1e-9
+
+
+def test_derate_keeps_coil_below_cut(design):
+    clock = FakeClock()
+    thermal, current = coil_model(design)
+    g = ThermalGuard(design, thermal=thermal, current_fn=current, clock=clock, policy="derate")
+    ts, temps, allowed = hold(g, clock, np.full(8, 1.0), 200.0, dt=0.1)
+    assert temps.max() < g.cut_C
+    assert np.all(g.trips == 0)
+    # full level while cool, reduced once inside the band, steady and positive at the end
+    assert np.all(allowed[0] == 1.0)
+    assert 0 < allowed[-1, 0] < 1.0
+    assert temps[-1, 0] > g.derate_from_C
+    assert abs(temps[-1, 0] - temps[-50, 0]) < 0.5
+
+
+def test_watchdog_cuts_a_coil_left_on(design):
+    """Real time, no caller ticks: the watchdog thread alone cuts a fast-heating coil."""
+    thermal = DoubleThermal(design, speedup=3.0)  # ~44 K/s: reaches the cut-off in ~0.6 s
+    guard = ThermalGuard(design, thermal=thermal, current_fn=double_current_A, policy="cut")
+    be = mock_backend(design)
+    with Actuator(design, be, guard=guard, current_fn=double_current_A) as act:
+        act.retract(level=1.0 if max_level(design) >= 1 else max_level(design), which="opposite")
+        assert be.factory.pin(be.channels[0].forward).state > 0
+        deadline = time.monotonic() + 10.0
+        while guard.trips[0] == 0 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert guard.trips[0] >= 1 and guard.trips[4] >= 1
+        time.sleep(0.05)
+        assert be.factory.pin(be.channels[0].forward).state == 0 or not guard.tripped[0]
+        assert guard.peak_C.max() < guard.limit_C
+
+
+def test_large_clock_jump_stays_finite(design):
+    clock = FakeClock()
+    thermal, current = coil_model(design)
+    g = ThermalGuard(design, thermal=thermal, current_fn=current, clock=clock, policy="cut")
+    g.allow(np.full(8, 0.5), clock())
+    g.allow(np.full(8, 0.5), clock.advance(1000.0))
+    assert np.all(np.isfinite(g.temperatures))
+    with pytest.raises(ValueError, match="backwards"):
+        g.allow(np.zeros(8), clock.advance(-1.0))
+
+
+def test_broken_model_is_not_silent(design):
+    class NaNThermal(DoubleThermal):
+        def step(self, temperature_C, current_A, dt_s):
+            return float("nan") if current_A > 0 else temperature_C
+
+    clock = FakeClock()
+    g = ThermalGuard(design, thermal=NaNThermal(design), current_fn=double_current_A, clock=clock)
+    g.allow(np.full(8, 0.5), clock())
+    with pytest.raises(FloatingPointError, match="coil 0"):
+        g.allow(np.full(8, 0.5), clock.advance(0.1))
+    # an actuator whose guard fails switches the coils off
+    clock2 = FakeClock()
+    g2 = ThermalGuard(design, thermal=NaNThermal(design), current_fn=double_current_A, clock=clock2)
+    be = mock_backend(design)
+    act = Actuator(design, be, guard=g2, watchdog=False, clock=clock2, current_fn=double_current_A)
+    act.retract(level=0.5)
+    clock2.advance(0.1)
+    with pytest.raises(FloatingPointError):
+        act.tick()
+    act.off()
+    assert all(p.state == 0 for p in be.factory.pins.values())
+    act.close()
+
+
+def test_guard_parameters_refused(design):
+    with pytest.raises(ValueError, match="policy"):
+        ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A, policy="pray")
+    hot = default_design("drive.guard_margin=40")
+    with pytest.raises(ValueError, match="not above ambient"):
+        ThermalGuard(hot, thermal=DoubleThermal(hot), current_fn=double_current_A)
+    with pytest.raises(ValueError, match="finite"):
+        ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A,
+                     initial_C=float("nan"))
+    g = ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A)
+    with pytest.raises(ValueError, match="8 finite"):
+        g.allow([0.1] * 7)
+
+
+def test_starting_hot_is_cut_immediately(design):
+    g = ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A,
+                     clock=FakeClock(), initial_C=70.0)
+    assert np.all(g.allow(np.full(8, 0.5)) == 0)
+
+
+def test_state_file_carries_heat_to_the_next_run(design, tmp_path):
+    state = tmp_path / "coils.json"
+    clock = FakeClock()
+    g = ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A, clock=clock,
+                     state_file=state, policy="cut")
+    hold(g, clock, np.full(8, 1.0), 3.0)
+    hot = g.temperatures.copy()
+    assert hot.min() > g.ambient_C + 5
+    g.save_state()
+    data = json.loads(state.read_text())
+    assert np.allclose(data["temperatures_C"], hot)
+    g2 = ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A, state_file=state)
+    assert np.all(g2.temperatures > g.ambient_C + 1) and np.all(g2.temperatures <= hot + 1e-9)
+    # an hour later: ambient
+    data["wall_time_s"] -= 7200
+    state.write_text(json.dumps(data))
+    g3 = ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A, state_file=state)
+    assert np.allclose(g3.temperatures, g.ambient_C)
+    state.write_text("{broken")
+    with pytest.raises(ValueError, match="unreadable coil state"):
+        ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A, state_file=state)
+
+
+# ---- ratings ----------------------------------------------------------------------------------
+
+def test_level_above_rating_refused():
+    d = default_design("drive.full_scale_voltage=6.0", "drive.max_coil_voltage=3.0")
+    assert max_level(d) == pytest.approx(0.5)
+    check_levels(d, np.full(8, 0.5))
+    with pytest.raises(RatingError, match="whisker 5.*3.06 V at the coil"):
+        check_levels(d, [0, 0, 0, 0, 0, -0.51, 0, 0])
+    with pytest.raises(RatingError, match="above the coil rating"):
+        volts_to_levels(d, np.full(8, 3.01))
+    assert volts_to_levels(d, np.full(8, -3.0)) == pytest.approx(np.full(8, -0.5))
+
+
+def test_volts_beyond_full_scale_refused(design):
+    d = default_design("drive.max_coil_voltage=10")
+    with pytest.raises(RatingError, match="100 % duty"):
+        volts_to_levels(d, np.full(8, d.drive.full_scale_voltage + 0.1))
+    with pytest.raises(ValueError, match="finite"):
+        volts_to_levels(design, [np.nan] * 8)
+
+
+def test_driver_check(design):
+    assert check_driver(design, double_current_A) == pytest.approx(
+        design.drive.full_scale_voltage / design.coil.resistance)
+    with pytest.raises(RatingError, match="2 A per channel"):
+        check_driver(default_design("coil.resistance=1.5"), double_current_A)
+
+
+@settings(max_examples=40, deadline=None)
+@given(levels=st.lists(st.floats(-1, 1, allow_nan=False), min_size=8, max_size=8),
+       temp=st.floats(0, 200))
+def test_allowed_never_exceeds_request(levels, temp):
+    d = default_design()
+    g = ThermalGuard(d, thermal=DoubleThermal(d), current_fn=double_current_A, clock=FakeClock(),
+                     initial_C=temp)
+    req = np.array(levels)
+    a = g.allow(req)
+    assert np.all(np.abs(a) <= np.abs(req) + 1e-15)
+    assert np.all(a * req >= 0)  # never reverses a coil
+    if temp >= g.cut_C:
+        assert np.all(a == 0)
