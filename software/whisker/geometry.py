@@ -217,7 +217,7 @@ def exact_deflection(design, u_px, v_px, whisker, mtx=None) -> Deflection:
     Ray from the camera centre C through pixel (u, v): X(t) = C + t d. The marker lies on the sphere
     |X - P| = l_l about the whisker's pivot P, on the half nearer the camera: the smaller root of
     t^2 |d|^2 + 2 t (m.d) + |m|^2 - l_l^2 = 0, m = C - P. If the ray misses the sphere the closest
-    point is used and `clamped` is set. theta = arccos((P_z - X_z) / l_l); tip = P + l_u (P - X) / l_l.
+    point is used and `clamped` is set. theta = atan2(|(P - X)_xy|, (P - X)_z); tip = P + l_u (P - X) / l_l.
     """
     u = np.asarray(u_px, dtype=float)
     v = np.asarray(v_px, dtype=float)
@@ -243,10 +243,11 @@ def exact_deflection(design, u_px, v_px, whisker, mtx=None) -> Deflection:
         t = (-b - np.sqrt(np.maximum(disc, 0.0))) / a
     X = C + t[..., None] * d
     rel = P - X  # pivot minus marker: along the rod, towards the tip
-    with np.errstate(invalid="ignore"):
-        cos_t = np.clip(rel[..., 2] / ll, -1.0, 1.0)
-        cos_t = np.where(clamped, 0.0, cos_t)
-    theta = np.degrees(np.arccos(cos_t))
+    # atan2 of the horizontal and vertical parts: accurate at small angles, where arccos is not
+    horiz = np.hypot(rel[..., 0], rel[..., 1])
+    theta_r = np.where(clamped, np.pi / 2, np.arctan2(horiz, rel[..., 2]))
+    cos_t = np.cos(theta_r)
+    theta = np.degrees(theta_r)
     lever = design.l_u / ll
     tip_x = lever * rel[..., 0]
     tip_y = lever * rel[..., 1]

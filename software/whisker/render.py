@@ -17,6 +17,7 @@ blur, specular highlights on the coil windings, the markers' foreshortening when
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -75,6 +76,24 @@ def _blend(img: np.ndarray, y0: int, x0: int, alpha: np.ndarray, bgr) -> None:
     sub += alpha[..., None] * (np.asarray(bgr, dtype=np.float32) - sub)
 
 
+@functools.lru_cache(maxsize=8)
+def _scene(h, w, cx, cy, ring_px, cavity, k):
+    """Background (float32 BGR): purple mount, dark cavity, pale membrane, LED ring. Cached."""
+    import cv2
+
+    img = np.empty((h, w, 3), np.float32)
+    img[:] = CAVITY_BGR
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    rr = np.hypot(xx - cx, yy - cy)
+    img[rr > cavity] = MOUNT_BGR
+    img[rr < ring_px - 2.5 / k] = MEMBRANE_BGR
+    led = (rr > cavity + 4.0 / k) & (rr < cavity + 7.0 / k)
+    img[led & ((np.degrees(np.arctan2(yy - cy, xx - cx)) % 20.0) < 8.0)] = LED_BGR
+    img = cv2.GaussianBlur(img, (0, 0), 1.2)
+    img.flags.writeable = False
+    return img
+
+
 def render_frame(design, markers_px, *, seed: int = 0, noise_sigma: float = 0.0, blur_px: float = 0.0,
                  wires: bool = True, blocks: bool = True, scene: bool = True, light_gradient: float = 0.0,
                  vignette: float = 0.0, marker_radius: float | None = None, centre_px=None,
@@ -106,49 +125,36 @@ def render_frame(design, markers_px, *, seed: int = 0, noise_sigma: float = 0.0,
     else:
         centre = np.asarray(centre_px, dtype=float)
     rng = np.random.default_rng(seed)
-    img = np.empty((h, w, 3), np.float32)
-    img[:] = CAVITY_BGR
     if scene:
+        img = _scene(h, w, round(float(centre[0]), 1), round(float(centre[1]), 1),
+                     design.whiskers.ring_radius / k, (design.cavity_radius + 1.0) / k, k).copy()
+    else:
+        img = np.empty((h, w, 3), np.float32)
+        img[:] = CAVITY_BGR
+    block = design.coil.outer_diameter / k
+    if (blocks or wires) and shown.any():
         import cv2
 
-        ring_px = design.whiskers.ring_radius / k
-        yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
-        rr = np.hypot(xx - centre[0], yy - centre[1])
-        cavity = (design.cavity_radius + 1.0) / k
-        img[rr > cavity] = MOUNT_BGR
-        img[rr < ring_px - 2.5 / k] = MEMBRANE_BGR
-        led = (rr > cavity + 4.0 / k) & (rr < cavity + 7.0 / k)
-        img[led & ((np.degrees(np.arctan2(yy - centre[1], xx - centre[0])) % 20.0) < 8.0)] = LED_BGR
-        img = cv2.GaussianBlur(img, (0, 0), 1.2)
-    block = design.coil.outer_diameter / k
-    for p in pts[shown]:
-        ang = math.atan2(p[1] - centre[1], p[0] - centre[0])
-        c, s = math.cos(ang), math.sin(ang)
-        if blocks:
-            import cv2
-
-            rect = ((float(p[0]), float(p[1])), (block, block), math.degrees(ang))
-            poly = cv2.boxPoints(rect).astype(np.float32)
-            layer = np.zeros((h, w), np.uint8)
-            cv2.fillConvexPoly(layer, np.round(poly * 16).astype(np.int32), 255, cv2.LINE_AA, shift=4)
-            ys, xs = np.nonzero(layer)
+        # one anti-aliased layer per kind, blended once (fixed-point coordinates: 4 fractional bits)
+        layers = {"blocks": np.zeros((h, w), np.uint8), "wires": np.zeros((h, w), np.uint8)}
+        for p in pts[shown]:
+            ang = math.atan2(p[1] - centre[1], p[0] - centre[0])
+            c, s = math.cos(ang), math.sin(ang)
+            if blocks:
+                poly = cv2.boxPoints(((float(p[0]), float(p[1])), (block, block), math.degrees(ang)))
+                cv2.fillConvexPoly(layers["blocks"], np.round(poly * 16).astype(np.int32), 255, cv2.LINE_AA, shift=4)
+            if wires:
+                for side in (-1.0, 1.0):
+                    # leave the block's outer face at +-1/4 of its width, run outward, bend a little
+                    q0 = np.array([p[0] + c * block / 2 - s * side * block / 4, p[1] + s * block / 2 + c * side * block / 4])
+                    q1 = q0 + np.array([c, s]) * 2.0 * block + np.array([-s, c]) * side * 0.5 * block
+                    cv2.line(layers["wires"], tuple(int(v) for v in np.round(q0 * 16)),
+                             tuple(int(v) for v in np.round(q1 * 16)), 255, 3, cv2.LINE_AA, shift=4)
+        for name, bgr in (("blocks", BLOCK_BGR), ("wires", WIRE_BGR)):
+            ys, xs = np.nonzero(layers[name])
             if ys.size:
-                a = layer[ys, xs].astype(np.float32)[:, None] / 255.0
-                img[ys, xs] += a * (np.asarray(BLOCK_BGR, np.float32) - img[ys, xs])
-        if wires:
-            import cv2
-
-            layer = np.zeros((h, w), np.uint8)
-            for side in (-1.0, 1.0):
-                # leave the block's outer face at +-1/4 of its width, run outward and bend a little
-                q0 = np.array([p[0] + c * block / 2 - s * side * block / 4, p[1] + s * block / 2 + c * side * block / 4])
-                q1 = q0 + np.array([c, s]) * 2.0 * block + np.array([-s, c]) * side * 0.5 * block
-                cv2.line(layer, tuple(np.round(q0 * 16).astype(int)), tuple(np.round(q1 * 16).astype(int)),
-                         255, 3, cv2.LINE_AA, shift=4)
-            ys, xs = np.nonzero(layer)
-            if ys.size:
-                a = layer[ys, xs].astype(np.float32)[:, None] / 255.0
-                img[ys, xs] += a * (np.asarray(WIRE_BGR, np.float32) - img[ys, xs])
+                a = layers[name][ys, xs].astype(np.float32)[:, None] / 255.0
+                img[ys, xs] += a * (np.asarray(bgr, np.float32) - img[ys, xs])
     for p in pts[shown]:
         y0, x0, cov = _disc_coverage(h, w, p[0], p[1], r_m)
         _blend(img, y0, x0, cov.astype(np.float32), marker_bgr)
@@ -163,7 +169,7 @@ def render_frame(design, markers_px, *, seed: int = 0, noise_sigma: float = 0.0,
 
         img = cv2.GaussianBlur(img, (0, 0), float(blur_px))
     if noise_sigma > 0:
-        img += rng.normal(0.0, float(noise_sigma), img.shape).astype(np.float32)
+        img += float(noise_sigma) * rng.standard_normal(img.shape, dtype=np.float32)
     return np.clip(np.rint(img), 0, 255).astype(np.uint8)
 
 

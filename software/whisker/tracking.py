@@ -79,6 +79,7 @@ class TrackResult:
     method: str
     message: str = ""
     detections: int = 0
+    track_px: np.ndarray | None = None  # positions in the coordinates of the tracked (raw or remapped) frame
 
     @property
     def all_valid(self) -> bool:
@@ -405,17 +406,24 @@ class Tracker:
                 continue
             if det.border[j]:
                 status[i] = "border"
-            elif det.area[j] > 1.7 * area_ref[i] or counts[j] > 1:
+            elif det.area[j] > 1.6 * area_ref[i] or counts[j] > 1:
                 status[i] = "merged"
             else:
                 pos[i] = det.xy[j]
                 status[i] = "ok"
-        # a whisker with no detection whose expected spot is inside another whisker's merged blob
+        # a whisker with no detection of its own next to an oversized blob that another whisker
+        # took: one blob where two markers should be -> both merged
+        owner = {int(j): i for i, j in enumerate(idx) if j >= 0}
         for i in range(self.n):
-            if status[i] == "lost" and np.all(np.isfinite(ref[i])):
-                for j in np.flatnonzero(det.area > 1.7 * np.nanmedian(area_ref)):
-                    if np.hypot(*(det.xy[j] - ref[i])) < self.gate:
-                        status[i] = "merged"
+            if status[i] != "lost" or not np.all(np.isfinite(ref[i])):
+                continue
+            for j in range(len(det.xy)):
+                m = owner.get(j)
+                big = det.area[j] > 1.2 * (area_ref[m] if m is not None else np.nanmedian(area_ref))
+                if big and np.hypot(*(det.xy[j] - ref[i])) < 2.5 * self.marker_r:
+                    status[i] = "merged"
+                    if m is not None:
+                        status[m] = "merged"
         for i in range(self.n):
             if status[i] == "merged":
                 pos[i] = np.nan
@@ -592,7 +600,9 @@ class Tracker:
             dx, dy = d[:, 0], d[:, 1]
         else:
             dx = dy = np.full(self.n, np.nan)
-        return TrackResult(out, valid, status, dx, dy, self.method, "", ndet)
+        track_px = pos.copy()
+        track_px[~valid] = np.nan
+        return TrackResult(out, valid, status, dx, dy, self.method, "", ndet, track_px)
 
     def deflection(self, result: TrackResult, model: str = "paper"):
         """Geometry of a TrackResult: `whisker.geometry.deflection` with this tracker's k."""
