@@ -553,3 +553,34 @@ def run_sequence(actuator: Actuator, steps: Sequence[Step], *, period_s: float =
             sleep(min(period_s, max(0.0, runner.t0 + runner.total_s - now)) or period_s)
     finally:
         actuator.off()
+
+
+# ---------------------------------------------------------------------------------------------
+# construction from the command line
+# ---------------------------------------------------------------------------------------------
+
+def default_state_file(backend_name: str):
+    """Where the real coils' temperatures persist between runs (gpio only; None otherwise):
+    $XDG_CACHE_HOME/whisker/coil_state.json (default ~/.cache/whisker/coil_state.json)."""
+    import os
+    from pathlib import Path
+
+    if backend_name != "gpio":
+        return None
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return base / "whisker" / "coil_state.json"
+
+
+def open_actuator(design, backend_name: str, *, policy: str = "derate", state_file=None,
+                  log: Optional[Callable] = None, watchdog: bool = True) -> Actuator:
+    """An Actuator on the named backend with the design's coil model as thermal guard."""
+    backend = open_backend(backend_name, design)
+    try:
+        guard = ThermalGuard(design, policy=policy,
+                             state_file=state_file if state_file is not None else default_state_file(backend_name))
+        return Actuator(design, backend, guard=guard, watchdog=watchdog, log=log)
+    except BaseException:
+        close = getattr(backend, "close", None)
+        if close is not None:
+            close()
+        raise
