@@ -108,6 +108,10 @@ def format_report(rep: dict) -> str:
         L.append(f"  gap {g:5.2f} mm: {k * 1e3:8.2f} mN/A  {fm:8.2f} mN")
     L.append(f"  at rest (gap {f['rest_gap_mm']:g} mm): {f['force_at_rest_mN']:.2f} mN, torque "
              f"{f['torque_at_rest_Nmm']:.4f} N*mm on a {f['lever_mm']:.2f} mm lever")
+    n_m = w["turns_for_measured_resistance"]
+    if abs(n_m - w["turns"]) > 0.1 * w["turns"]:
+        L.append(f"  NOTE: force uses coil.turns = {w['turns']}; if the coil has the {n_m} turns its measured "
+                 f"resistance implies, every force and torque here is {n_m / w['turns']:.2f}x")
     eq = d["equilibrium"]
     L.append(f"DEFLECTION (rotational stiffness {d['rotational_stiffness_Nmm_per_rad']:g} N*mm/rad)")
     if eq["stable"]:
