@@ -1,0 +1,15 @@
+# Printing: slicer check + print report, and preview images (issue 3). See docs/printing.md.
+#   make check-print                 slice every printable part of the default design (PrusaSlicer)
+#   make check-print WHISKERS=12     the same for a 12-whisker design
+#   make preview PREVIEW=docs/images refresh the README's images (default design only)
+PREVIEW ?= $(OUT)/preview
+
+.PHONY: check-print preview
+
+check-print: $(BIN)/.installed ## slice every printable part headless: time, grams, supports -> exports/print_report.md
+	$(BIN)/whisker cad build $(DESIGN_ARGS) --out $(OUT) -q
+	$(BIN)/whisker print check $(DESIGN_ARGS) --out $(OUT)
+
+preview: $(BIN)/.installed ## PNG images of each printable part and the assembly (into $(PREVIEW))
+	$(BIN)/whisker cad build $(DESIGN_ARGS) --out $(OUT) -q
+	$(BIN)/whisker print preview $(DESIGN_ARGS) --out $(OUT) --images $(PREVIEW)
