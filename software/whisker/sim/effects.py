@@ -78,6 +78,28 @@ def levels_at(scene: Scene, n: int, t: float) -> np.ndarray:
     return lv
 
 
+def levels_table(scene: Scene, n: int, times: np.ndarray) -> np.ndarray:
+    """Levels (T, n) at each of `times` (vectorised :func:`levels_at`)."""
+    times = np.asarray(times, dtype=float)
+    out = np.zeros((len(times), n))
+    for ev in scene.actuation.schedule:
+        idx = list(range(n)) if ev.whiskers is None else ev.whiskers
+        for i in idx:
+            if not 0 <= i < n:
+                raise SceneError(f"actuation.schedule: whisker {i} does not exist (the design has {n})")
+        out[np.ix_(times >= ev.t, idx)] = ev.level
+    return out
+
+
+def poses_table(scene: Scene, times: np.ndarray) -> np.ndarray:
+    """Poses (T, 4) at each of `times` (vectorised :func:`pose_at`)."""
+    p = np.asarray(scene.sensor.path, dtype=float)
+    times = np.asarray(times, dtype=float)
+    if len(p) == 1:
+        return np.repeat(p[:1, 1:], len(times), axis=0)
+    return np.stack([np.interp(times, p[:, 0], p[:, k]) for k in range(1, 5)], axis=1)
+
+
 def pose_at(scene: Scene, t: float) -> np.ndarray:
     """Sensor pose [x_mm, y_mm, tip_height_mm, yaw_deg] at time t (linear between waypoints)."""
     p = np.asarray(scene.sensor.path, dtype=float)

@@ -177,11 +177,30 @@ class Outputs(_S):
 
 class Fidelity(_S):
     magnetics: str = Field("table", description="whisker.magnetics model name")
+    magnetics_lookup: int = Field(256, ge=0, le=100000,
+                                  description="sample the magnetics model at this many gaps once per run and "
+                                              "interpolate (0: call the model every step)")
+    heating_interval: float = Field(0.01, gt=0, description="s between coil-temperature updates")
     heating: Literal["auto", "on", "off"] = "auto"
     heating_threshold_K: float = Field(0.5, gt=0, description="K of predicted coil rise that turns heating on")
     contact: Literal["auto", "on"] = Field("auto", description="'on' builds MuJoCo even without objects")
     solver: Literal["auto", "static", "dynamic"] = "auto"
     integrator: Literal["implicit", "euler"] = "implicit"
+
+
+class ContactSpec(_S):
+    """MuJoCo contact settings (the contact effect); defaults chosen in benchmarks/results/sim.md."""
+    rod_friction: float = Field(0.3, ge=0, le=10, description="Coulomb coefficient of the bare carbon rod "
+                                                              "(estimate; the tips use [mechanics] tip_friction)")
+    tip_coating: float = Field(5.0, gt=0, description="mm of sand coating at the tip")
+    tip_radius_factor: float = Field(1.2, ge=1, le=5, description="coated tip radius / rod radius")
+    condim: Literal[1, 3, 4, 6] = Field(4, description="MuJoCo contact dimensionality (4: + torsional friction)")
+    cone: Literal["pyramidal", "elliptic"] = "elliptic"
+    impratio: float = Field(10.0, ge=1, le=100, description="MuJoCo friction-to-normal impedance ratio")
+    integrator: Literal["Euler", "implicitfast", "implicit", "RK4"] = "implicitfast"
+    solref_timeconst: float = Field(0.004, gt=0, le=1, description="s, contact stiffness time constant")
+    chunk: int = Field(5, ge=1, le=1000, description="MuJoCo steps between Python updates (path velocity, "
+                                                     "coil torque linearisation, heating)")
 
 
 class Experiment(_S):
@@ -215,6 +234,7 @@ class Scene(_S):
     camera: CameraSpec = CameraSpec()
     outputs: Outputs = Outputs()
     fidelity: Fidelity = Fidelity()
+    contact: ContactSpec = ContactSpec()
     experiment: Experiment = Experiment()
     base_dir: str = Field(".", description="folder relative paths resolve against (set by load_scene)")
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from whisker.sim.effects import Plan, levels_at, plan as make_plan, pose_at
+from whisker.sim.effects import Plan, levels_at, levels_table, plan as make_plan, pose_at, poses_table
 from whisker.sim.kinematics import (WhiskerBody, energy_J, gravity_torque, magnetic_torque,
                                     marker_positions_mm, static_equilibrium, step_free,
                                     tip_positions_mm, whisker_body)
@@ -51,9 +51,14 @@ def _check_finite(name: str, arr, t: float) -> None:
 
 
 class Drive:
-    """Currents of the coils from levels, with the coil heating when the plan builds it."""
+    """Currents of the coils from levels, the coil torque, and the coil heating when built.
 
-    def __init__(self, scene: Scene, design, plan: Plan):
+    Currents are recomputed only when the levels or the temperatures change; the magnetics model
+    is sampled once on `fidelity.magnetics_lookup` gaps over the reachable range and interpolated
+    (0 = call whisker.magnetics every time); temperatures advance every `fidelity.heating_interval`.
+    """
+
+    def __init__(self, scene: Scene, design, plan: Plan, body: WhiskerBody | None = None):
         self.scene, self.design = scene, design
         self.volts = scene.actuation.voltage or design.actuation.voltage
         self.on = plan.built("magnetics")
@@ -67,22 +72,47 @@ class Drive:
         else:
             self.T = np.full(n, 20.0)
         self.model = scene.fidelity.magnetics
+        self._key = None
+        self._I = np.zeros(n)
+        self._heat_acc = 0.0
+        self._heat_I = np.zeros(n)
+        self._lut = None
+        if self.on and body is not None and scene.fidelity.magnetics_lookup > 0:
+            from whisker.sim.contract import force_per_ampere_N
+            s = math.sin(body.stop_rad) * body.lever_m * 1e3
+            g = np.linspace(max(body.gap0_mm - s, 1e-3), body.gap0_mm + s, scene.fidelity.magnetics_lookup)
+            self._lut = (g, force_per_ampere_N(design, g, model=self.model))
 
     def currents(self, levels: np.ndarray) -> np.ndarray:
         from whisker.sim.contract import current_A
         if not self.on:
             return np.zeros_like(levels)
-        return current_A(self.design, levels * self.volts, self.T)
+        key = levels.tobytes()
+        if key != self._key:
+            self._I = np.asarray(current_A(self.design, levels * self.volts, self.T), dtype=float)
+            self._key = key
+        return self._I
 
     def heat(self, I: np.ndarray, dt: float) -> None:
-        if self.thermal is not None:
-            self.T = np.array([self.thermal.step(float(T), float(abs(i)), dt) for T, i in zip(self.T, I)])
+        if self.thermal is None:
+            return
+        self._heat_acc += dt
+        self._heat_I = I
+        if self._heat_acc >= self.scene.fidelity.heating_interval - 1e-12:
+            self.T = np.array([self.thermal.step(float(T), float(abs(i)), self._heat_acc)
+                               for T, i in zip(self.T, self._heat_I)])
+            self._heat_acc = 0.0
+            self._key = None                       # resistance changed: recompute currents
             _check_finite("coil temperature", self.T, 0.0)
 
     def torque(self, body: WhiskerBody, theta_r, I) -> np.ndarray:
-        if not self.on:
+        if not self.on or not np.any(I):
             return np.zeros_like(theta_r)
-        return magnetic_torque(self.design, body, theta_r, I, self.model)
+        if self._lut is None:
+            return magnetic_torque(self.design, body, theta_r, I, self.model)
+        gap = body.gap0_mm - body.lever_m * 1e3 * np.sin(theta_r)
+        k = np.interp(gap, *self._lut)
+        return I * k * body.lever_m * np.cos(theta_r)
 
 
 def simulate(scene: Scene, design=None, plan: Plan | None = None, progress=None,
@@ -104,7 +134,7 @@ def simulate(scene: Scene, design=None, plan: Plan | None = None, progress=None,
 def _static(scene, design, plan, body) -> Result:
     n = design.whiskers.count
     lv = levels_at(scene, n, 0.0)
-    drive = Drive(scene, design, plan)
+    drive = Drive(scene, design, plan, body)
     I = drive.currents(lv)
     theta = np.zeros((1, n, 2))
     if drive.on:
@@ -125,16 +155,17 @@ def _free(scene, design, plan, body, progress, record_hz) -> Result:
                          f"2/omega_n = {2 / body.omega_n:.3g} s; use fidelity.integrator = 'implicit' or a smaller step")
     steps = int(math.ceil(duration / dt - 1e-9))
     every = max(1, int(round(1.0 / (record_hz * dt))))
-    drive = Drive(scene, design, plan)
+    drive = Drive(scene, design, plan, body)
     theta = np.zeros((n, 2))
     theta[:, 0] = math.radians(scene.scene.initial_tilt_deg)
     omega = np.zeros((n, 2))
     facing = scene.sensor.facing
     rec_t, rec_th, rec_om, rec_lv, rec_T = [], [], [], [], []
     # event times are honoured exactly: levels are sampled at the start of each step
+    table = levels_table(scene, n, np.arange(steps + 1) * dt)
     for k in range(steps + 1):
         t = k * dt
-        lv = levels_at(scene, n, t)
+        lv = table[k]
         if k % every == 0 or k == steps:
             rec_t.append(t); rec_th.append(theta.copy()); rec_om.append(omega.copy()); rec_lv.append(lv)
             rec_T.append(drive.T.copy())
@@ -159,7 +190,7 @@ def _free(scene, design, plan, body, progress, record_hz) -> Result:
 def _pack(plan, design, body, scene, t, theta, omega, levels, steps) -> Result:
     e = energy_J(body, theta, omega, scene.sensor.facing).sum(axis=-1)   # (T,) all whiskers
     _check_finite("energy", e, float(t[-1]) if len(t) else 0.0)
-    poses = np.array([pose_at(scene, float(x)) for x in t])
+    poses = poses_table(scene, t)
     return Result(plan=plan, t_s=t, theta_rad=theta, tips_mm=tip_positions_mm(design, theta),
                   markers_mm=marker_positions_mm(design, theta), energy_J=e, levels=levels,
                   sensor_pose=poses, steps=steps)

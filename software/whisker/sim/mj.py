@@ -1,0 +1,270 @@
+"""The contact effect: MuJoCo model of the sensor, its whiskers, the table and the objects.
+
+Built only when the plan has ``contact`` (objects within reach, tips on the table, or forced).
+Units inside MuJoCo are SI (m, kg, s); the scene's mm and g are converted here.
+
+- The sensor is a mocap body moved along the scene's path (the UR16e's prescribed motion).
+- Each whisker is a rigid body on two hinges at its pivot (radial tilt about -t, then tangential
+  about -r: the same universal joint as whisker.sim.kinematics), with the membrane as joint
+  stiffness/damping, the inertia of :class:`~whisker.sim.kinematics.WhiskerBody` given explicitly
+  (so both models carry the same mass data), a hard stop as the joint range, and geoms: a capsule
+  rod (``contact.rod_friction``) and a sand-coated tip capsule over ``contact.tip_coating`` mm
+  (``[mechanics] tip_friction``). Whiskers do not collide with each other (in the paper they
+  cross in the centre when all retract without an object).
+- Objects are free bodies with their mass (g) and friction; the table is a plane at z = 0.
+- The coil torque (whisker.sim.kinematics.magnetic_torque at the current tilt) is applied each
+  step through ``qfrc_applied``; gravity is MuJoCo's.
+
+Reference: MuJoCo XML reference (mocap bodies, hinge stiffness/damping/range, geom friction and
+contype/conaffinity) https://mujoco.readthedocs.io/en/stable/XMLreference.html
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from whisker.sim.effects import levels_table, pose_at, poses_table
+from whisker.sim.kinematics import energy_J, marker_positions_mm, tip_positions_mm
+
+MM = 1e-3
+
+
+def sensor_frame(scene, design, pose) -> tuple[np.ndarray, np.ndarray]:
+    """(arm joint values [x m, y m, z m, yaw rad], facing quaternion wxyz) for a path pose.
+
+    The arm carries the sensor: three slides and a yaw hinge, set every step to the path's pose and
+    velocity (a mocap body would teleport with zero velocity, and friction would not see the lift).
+    """
+    x, y, h, yaw = pose
+    z_tip = design.pivot_z + design.l_u
+    if scene.sensor.facing == "down":
+        q = np.array([0.0, 1.0, 0.0, 0.0])       # 180 deg about x: whiskers point down
+        z = h + z_tip
+    else:
+        q = np.array([1.0, 0.0, 0.0, 0.0])
+        z = h - z_tip
+    return np.array([x * MM, y * MM, z * MM, math.radians(yaw)]), q
+
+
+def _qmul(a, b):
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+
+
+def _f(v) -> str:
+    return " ".join(f"{float(x):.9g}" for x in np.atleast_1d(v))
+
+
+def build_mjcf(scene, design, body) -> str:
+    """The MJCF XML of the scene (SI units)."""
+    c = scene.contact
+    n = design.whiskers.count
+    pos0, q0 = sensor_frame(scene, design, pose_at(scene, 0.0))
+    J_com = body.inertia_kgm2 - body.mass_kg * body.com_m ** 2
+    J_ax = max(0.5 * body.rod_mass_kg * body.rod_radius_m ** 2
+               + 0.5 * body.coil_mass_kg * (design.coil.outer_diameter / 2 * MM) ** 2, 1e-12)
+    stop = math.degrees(body.stop_rad)
+    mu_tip = design.mechanics.tip_friction
+    coat = min(c.tip_coating, design.l_u) * MM
+    r = body.rod_radius_m
+    out = [f'<mujoco model="whisker-scene">',
+           '<compiler angle="degree" inertiafromgeom="auto"/>',
+           f'<option timestep="{scene.scene.timestep:.9g}" integrator="{c.integrator}" cone="{c.cone}" '
+           f'impratio="{c.impratio:g}" gravity="0 0 -9.81"><flag energy="enable"/></option>',
+           f'<default><geom condim="{c.condim}" solref="{c.solref_timeconst:.9g} 1"/></default>',
+           '<worldbody>']
+    if scene.table.enabled:
+        out.append(f'<geom name="table" type="plane" size="1 1 0.01" friction="{scene.table.friction:g} 0.005 0.0001" '
+                   'contype="1" conaffinity="3"/>')
+    out.append('<body name="arm" gravcomp="1"><inertial pos="0 0 0" mass="100" diaginertia="1 1 1"/>'
+               '<joint name="ax" type="slide" axis="1 0 0"/><joint name="ay" type="slide" axis="0 1 0"/>'
+               '<joint name="az" type="slide" axis="0 0 1"/><joint name="ayaw" type="hinge" axis="0 0 1"/>')
+    out.append(f'<body name="sensor" quat="{_f(q0)}">')
+    # the membrane face: objects cannot pass through the sensor
+    out.append(f'<geom name="membrane" type="cylinder" size="{design.membrane.inscribed_radius * MM:.9g} '
+               f'{design.membrane.thickness / 2 * MM:.9g}" pos="0 0 {design.pivot_z * MM:.9g}" '
+               f'contype="2" conaffinity="0" friction="0.5 0.005 0.0001" mass="0"/>')
+    for i, a in enumerate(design.whisker_angles_deg):
+        ar = math.radians(a)
+        cx, cy = math.cos(ar), math.sin(ar)
+        p = np.array([design.whiskers.ring_radius * cx, design.whiskers.ring_radius * cy, design.pivot_z]) * MM
+        out.append(f'<body name="w{i}" pos="{_f(p)}">')
+        out.append(f'<inertial pos="0 0 {body.com_m:.9g}" mass="{body.mass_kg:.9g}" '
+                   f'diaginertia="{J_com:.9g} {J_com:.9g} {J_ax:.9g}"/>')
+        out.append(f'<joint name="r{i}" type="hinge" axis="{_f([cy, -cx, 0])}" stiffness="{body.stiffness:.9g}" '
+                   f'damping="{body.damping:.9g}" range="{-stop:.9g} {stop:.9g}" limited="true"/>')
+        out.append(f'<joint name="t{i}" type="hinge" axis="{_f([-cx, -cy, 0])}" stiffness="{body.stiffness:.9g}" '
+                   f'damping="{body.damping:.9g}" range="{-stop:.9g} {stop:.9g}" limited="true"/>')
+        out.append(f'<geom name="rod{i}" type="capsule" fromto="0 0 {-body.rod_bottom_m:.9g} 0 0 {body.rod_top_m - coat:.9g}" '
+                   f'size="{r:.9g}" friction="{c.rod_friction:g} 0.005 0.0001" contype="2" conaffinity="0" mass="0"/>')
+        out.append(f'<geom name="tip{i}" type="capsule" fromto="0 0 {body.rod_top_m - coat:.9g} 0 0 {body.rod_top_m:.9g}" '
+                   f'size="{r * c.tip_radius_factor:.9g}" friction="{mu_tip:g} 0.005 0.0001" contype="2" conaffinity="0" mass="0"/>')
+        out.append('</body>')
+    out.append('</body></body>')
+    for o in scene.objects:
+        out.append(_object_xml(scene, o))
+    out.append('</worldbody><actuator>')
+    for i in range(n):
+        out.append(f'<general name="m{i}" joint="r{i}" gaintype="affine" gainprm="0 0 0" biastype="none" '
+                   'ctrllimited="false" forcelimited="false"/>')
+    out.append('</actuator></mujoco>')
+    return "\n".join(out)
+
+
+def _object_xml(scene, o) -> str:
+    s = np.asarray(o.size) * MM
+    yaw = math.radians(o.yaw)
+    q = [math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
+    z = o.half_height * MM
+    fr = f'friction="{o.friction:g} 0.005 0.0001"'
+    kw = f'{fr} mass="{o.mass * 1e-3:.9g}" contype="1" conaffinity="3"'
+    if o.shape == "sphere":
+        g = f'<geom type="sphere" size="{_f(s)}" {kw}/>'
+    elif o.shape in ("ellipsoid", "box"):
+        g = f'<geom type="{o.shape}" size="{_f(s)}" {kw}/>'
+    elif o.shape in ("cylinder", "capsule"):
+        g = f'<geom type="{o.shape}" size="{_f(s)}" {kw}/>'
+    else:
+        raise ValueError(f"object {o.name!r}: mesh objects are not supported by this build yet; "
+                         "approximate it with a primitive")
+    return (f'<body name="obj:{o.name}" pos="{o.pos[0] * MM:.9g} {o.pos[1] * MM:.9g} {z + 1e-5:.9g}" quat="{_f(q)}">'
+            f'<freejoint/>{g}</body>')
+
+
+class MjScene:
+    """A built MuJoCo scene with the whisker drive; step() advances one time step."""
+
+    def __init__(self, scene, design, plan, body):
+        import mujoco
+
+        from whisker.sim.simulate import Drive
+
+        self.mujoco = mujoco
+        self.scene, self.design, self.body = scene, design, body
+        self.xml = build_mjcf(scene, design, body)
+        self.model = mujoco.MjModel.from_xml_string(self.xml)
+        self.data = mujoco.MjData(self.model)
+        n = design.whiskers.count
+        self.n = n
+        jid = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, f"{k}{i}") for i in range(n) for k in "rt"]
+        self.qadr = np.array([self.model.jnt_qposadr[j] for j in jid]).reshape(n, 2)
+        self.vadr = np.array([self.model.jnt_dofadr[j] for j in jid]).reshape(n, 2)
+        aj = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, k) for k in ("ax", "ay", "az", "ayaw")]
+        self.arm_q = np.array([self.model.jnt_qposadr[j] for j in aj])
+        self.arm_v = np.array([self.model.jnt_dofadr[j] for j in aj])
+        self.obj_ids = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, f"obj:{o.name}") for o in scene.objects]
+        self.drive = Drive(scene, design, plan, body)
+        pos0, _ = sensor_frame(scene, design, pose_at(scene, 0.0))
+        self.data.qpos[self.arm_q] = pos0
+        self.data.qpos[self.qadr[:, 0]] = math.radians(scene.scene.initial_tilt_deg)
+        mujoco.mj_forward(self.model, self.data)
+        self.t = 0.0
+
+    def theta(self) -> np.ndarray:
+        return self.data.qpos[self.qadr].copy()
+
+    def omega(self) -> np.ndarray:
+        return self.data.qvel[self.vadr].copy()
+
+    def objects_mm(self) -> np.ndarray:
+        return self.data.xpos[self.obj_ids].copy() / MM if self.obj_ids else np.zeros((0, 3))
+
+    def arm_table(self, times: np.ndarray) -> np.ndarray:
+        """Arm joint values (T, 4) along the path at `times`."""
+        poses = poses_table(self.scene, times)
+        z_tip = self.design.pivot_z + self.design.l_u
+        z = poses[:, 2] + (z_tip if self.scene.sensor.facing == "down" else -z_tip)
+        return np.stack([poses[:, 0] * MM, poses[:, 1] * MM, z * MM, np.radians(poses[:, 3])], axis=1)
+
+    def _magnetic_gains(self, I: np.ndarray) -> None:
+        """Coil torque as MuJoCo affine actuators, linearised about each whisker's current tilt.
+
+        tau(theta) = I k(gap(theta)) L cos(theta) ~ I (f(th0) + f'(th0) (theta - th0)); the gains are
+        refreshed every chunk, so between refreshes the torque follows the tilt to first order.
+        """
+        th0 = self.data.qpos[self.qadr[:, 0]].copy()
+        if not self.drive.on or not np.any(I):
+            self.model.actuator_gainprm[:, :2] = 0.0
+            self.data.ctrl[:] = 0.0
+            return
+        h = 1e-4
+        f0 = self.drive.torque(self.body, th0, np.ones_like(th0))
+        f1 = self.drive.torque(self.body, th0 + h, np.ones_like(th0))
+        slope = (f1 - f0) / h
+        self.model.actuator_gainprm[:, 0] = f0 - slope * th0
+        self.model.actuator_gainprm[:, 1] = slope
+        self.data.ctrl[:] = I
+
+    def advance(self, levels: np.ndarray, arm0: np.ndarray, arm1: np.ndarray, nstep: int) -> None:
+        """`nstep` time steps with `levels`, the arm moving linearly from arm0 to arm1 meanwhile."""
+        d, dt = self.data, self.model.opt.timestep
+        d.qpos[self.arm_q] = arm0                 # the arm follows the path exactly (prescribed motion)
+        d.qvel[self.arm_v] = (arm1 - arm0) / (dt * nstep)
+        I = self.drive.currents(levels)
+        self._magnetic_gains(I)
+        self.mujoco.mj_step(self.model, d, nstep)
+        self.drive.heat(I, dt * nstep)
+        self.t += dt * nstep
+
+    def step(self, levels: np.ndarray) -> None:
+        dt = self.model.opt.timestep
+        arm0, arm1 = self.arm_table(np.array([self.t, self.t + dt]))
+        self.advance(levels, arm0, arm1, 1)
+
+
+def run_mujoco(scene, design, plan, body, progress, record_hz):
+    from whisker.sim.scene import SceneError
+    from whisker.sim.simulate import Result, SimulationError
+
+    dt = scene.scene.timestep
+    duration = scene.scene.duration
+    if duration <= 0:
+        raise SceneError("scene.duration must be > 0 s for a contact scene")
+    if dt * body.omega_n > 0.5:
+        raise SceneError(f"scene.timestep {dt:g} s is too large for the whisker spring in MuJoCo "
+                         f"(dt x omega_n = {dt * body.omega_n:.2g} > 0.5); use <= {0.5 / body.omega_n:.2g} s")
+    sim = MjScene(scene, design, plan, body)
+    steps = int(math.ceil(duration / dt - 1e-9))
+    every = max(1, int(round(1.0 / (record_hz * dt))))
+    chunk = max(1, min(scene.contact.chunk, every))
+    times = np.arange(steps + 1) * dt
+    arm = sim.arm_table(times)
+    levels = levels_table(scene, design.whiskers.count, times)
+    # chunk boundaries: every `chunk` steps, at every recording, at every waypoint and level change
+    cuts = set(range(0, steps + 1, chunk)) | set(range(0, steps + 1, every)) | {steps}
+    for w in scene.sensor.path:
+        cuts.add(min(steps, int(round(w[0] / dt))))
+    for ev in scene.actuation.schedule:
+        cuts.add(min(steps, int(math.ceil(ev.t / dt - 1e-9))))
+    cuts = sorted(cuts)
+    rec = {"t": [], "th": [], "om": [], "lv": [], "obj": [], "E": [], "nc": [], "T": []}
+    for a, b in zip(cuts, cuts[1:] + [None]):
+        if a % every == 0 or a == steps:
+            th = sim.theta()
+            if not (np.all(np.isfinite(th)) and np.all(np.isfinite(sim.data.qvel))):
+                raise SimulationError(f"MuJoCo state became non-finite at t = {sim.t:.4g} s; use a smaller "
+                                      "scene.timestep or a softer contact")
+            rec["t"].append(a * dt); rec["th"].append(th); rec["om"].append(sim.omega()); rec["lv"].append(levels[a])
+            rec["obj"].append(sim.objects_mm()); rec["nc"].append(sim.data.ncon); rec["T"].append(sim.drive.T.copy())
+            rec["E"].append(float(sim.data.energy.sum()))
+            if progress and a % (every * 50) == 0:
+                progress(a / steps)
+        if b is None:
+            break
+        sim.advance(levels[a], arm[a], arm[b], b - a)
+        sim.t = b * dt
+    theta = np.array(rec["th"])
+    omega = np.array(rec["om"])
+    e_wh = energy_J(body, theta, omega, scene.sensor.facing).sum(axis=-1)
+    res = Result(plan=plan, t_s=np.array(rec["t"]), theta_rad=theta, tips_mm=tip_positions_mm(design, theta),
+                 markers_mm=marker_positions_mm(design, theta), energy_J=e_wh, levels=np.array(rec["lv"]),
+                 objects_mm=np.array(rec["obj"]), object_names=[o.name for o in scene.objects],
+                 sensor_pose=poses_table(scene, np.array(rec["t"])), contacts=np.array(rec["nc"]),
+                 steps=steps, info={"mujoco_energy_J": rec["E"][-1], "mujoco_energy_max_J": max(rec["E"])})
+    if sim.drive.heating:
+        res.temperature_C = np.array(rec["T"])
+    return res

@@ -1,0 +1,343 @@
+"""The paper's contact experiments in simulation: grasp table, displacement vs time, classification.
+
+Each attempt is an ordinary scene (whisker.sim.scene) built from the experiment scene's objects and
+parameters, simulated with MuJoCo (the plan builds contact because the object is within reach).
+
+Grasp protocol (paper Section III-B): the sensor starts above the object, descends until the tips are
+``experiment.tip_height`` mm above the table, drives the configuration's coils at level 1
+(``actuation.voltage``, 3 V), waits for the whiskers to close, lifts ``experiment.lift`` mm, holds;
+success if the object's centre ends more than ``experiment.hold_height`` mm above its resting height.
+Placement noise: the object's (x, y) ~ N(0, placement_noise^2) per axis, yaw uniform in
++-yaw_noise; the sensor's yaw uniform over one whisker spacing.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from whisker.sim.experiments import PAPER_GRASP, PAPER_GRASP_TOTAL
+from whisker.sim.scene import Scene, SceneError
+
+# grasp timeline, s
+T_DOWN, T_CLOSE, T_LIFT, T_HOLD, T_RELEASE = 0.3, 0.3, 0.5, 0.4, 0.4
+START_HEIGHT = 15.0   # mm of tip clearance above the object's top at the start
+
+
+def configurations(scene: Scene, design) -> list[list[int]]:
+    """Whisker index sets: the scene's, else the paper's all / every second / opposite pair."""
+    if scene.experiment.configurations:
+        return [list(c) for c in scene.experiment.configurations]
+    n = design.whiskers.count
+    out = [list(range(n))]
+    if n % 2 == 0 and n >= 4:
+        out.append(list(range(0, n, 2)))
+    if n % 2 == 0:
+        out.append([0, n // 2])
+    return out
+
+
+def grasp_scene(scene: Scene, obj, active: list[int], *, dx=0.0, dy=0.0, obj_yaw=0.0, sensor_yaw=0.0,
+                release: bool = False) -> Scene:
+    """One grasp attempt as a plain scene (path + schedule + the one object)."""
+    e = scene.experiment
+    h = e.tip_height
+    top = 2 * obj.half_height + START_HEIGHT
+    t1 = T_DOWN
+    t2 = t1 + T_CLOSE
+    t3 = t2 + T_LIFT
+    t4 = t3 + T_HOLD
+    path = [[0.0, 0.0, 0.0, top, sensor_yaw], [t1, 0.0, 0.0, h, sensor_yaw], [t2, 0.0, 0.0, h, sensor_yaw],
+            [t3, 0.0, 0.0, h + e.lift, sensor_yaw], [t4, 0.0, 0.0, h + e.lift, sensor_yaw]]
+    sched = [{"t": t1, "level": 1.0, "whiskers": list(active)}]
+    duration = t4
+    if release:
+        sched.append({"t": t4, "level": 0.0})
+        duration = t4 + T_RELEASE
+        path.append([duration, 0.0, 0.0, h + e.lift, sensor_yaw])
+    o = obj.model_dump()
+    o["pos"] = [obj.pos[0] + dx, obj.pos[1] + dy]
+    o["yaw"] = obj.yaw + obj_yaw
+    data = scene.model_dump()
+    data["objects"] = [o]
+    data["sensor"] = {"facing": "down", "path": path}
+    data["actuation"] = {**data["actuation"], "schedule": sched}
+    data["scene"] = {**data["scene"], "duration": duration}
+    data["experiment"] = {"kind": "none"}
+    data["camera"] = {**data["camera"], "enabled": False}
+    from whisker.sim.scene import scene_from_dict
+    return scene_from_dict(data)
+
+
+@dataclass
+class Attempt:
+    obj: str
+    config: int
+    success: bool
+    lift_mm: float
+    result: object = None
+
+
+def grasp_attempt(scene, design, obj, active, rng, *, keep=False, release=False, body=None) -> Attempt:
+    from whisker.sim.effects import plan
+    from whisker.sim.simulate import simulate
+
+    e = scene.experiment
+    dx, dy = rng.normal(0.0, e.placement_noise, 2) if e.placement_noise > 0 else (0.0, 0.0)
+    oyaw = rng.uniform(-e.yaw_noise, e.yaw_noise)
+    n = design.whiskers.count
+    syaw = rng.uniform(-180.0 / n, 180.0 / n)
+    s = grasp_scene(scene, obj, active, dx=dx, dy=dy, obj_yaw=oyaw, sensor_yaw=syaw, release=release)
+    p = plan(s, design)
+    if not p.built("contact"):
+        raise SceneError(f"grasp: object {obj.name!r} is out of reach of the whiskers")
+    res = simulate(s, design, p, body=body)
+    z = res.objects_mm[:, 0, 2]
+    t_end = T_DOWN + T_CLOSE + T_LIFT + T_HOLD
+    k_end = int(np.searchsorted(res.t_s, t_end - 1e-9))
+    k_end = min(k_end, len(z) - 1)
+    lift = float(z[k_end] - obj.half_height)
+    ok = bool(lift > e.hold_height and np.all(np.isfinite(z)))
+    return Attempt(obj.name, len(active), ok, lift, res if keep else None)
+
+
+def grasp_table(scene: Scene, design, progress=None) -> dict:
+    """Success rate (%) per object and configuration, with the paper's numbers beside them."""
+    from whisker.sim.kinematics import whisker_body
+
+    e = scene.experiment
+    objs = [o for o in scene.objects if not e.objects or o.name in e.objects]
+    if not objs:
+        raise SceneError("grasp experiment: the scene has no objects")
+    cfgs = configurations(scene, design)
+    body = whisker_body(design)
+    rates: dict[str, list[float]] = {}
+    lifts: dict[str, list[list[float]]] = {}
+    total = len(objs) * len(cfgs) * e.attempts
+    done = 0
+    for oi, o in enumerate(objs):
+        rates[o.name] = []
+        lifts[o.name] = []
+        for ci, cfg in enumerate(cfgs):
+            rng = np.random.default_rng([scene.scene.seed, oi, ci])
+            ok = []
+            ls = []
+            for _ in range(e.attempts):
+                a = grasp_attempt(scene, design, o, cfg, rng, body=body)
+                ok.append(a.success)
+                ls.append(a.lift_mm)
+                done += 1
+                if progress:
+                    progress(done / total)
+            rates[o.name].append(100.0 * float(np.mean(ok)))
+            lifts[o.name].append(ls)
+    totals = [float(np.mean([rates[o.name][c] for o in objs])) for c in range(len(cfgs))]
+    return {"configurations": cfgs, "rates": rates, "totals": totals, "attempts": e.attempts,
+            "objects": {o.name: o.mass for o in objs}, "lifts_mm": lifts}
+
+
+def grasp_markdown(tab: dict) -> str:
+    cfgs = tab["configurations"]
+    head = " | ".join(f"{len(c)} whiskers sim / paper" for c in cfgs)
+    lines = [f"| object (mass) | {head} |", "| --- |" + " --- |" * len(cfgs)]
+    for name, r in tab["rates"].items():
+        paper = PAPER_GRASP.get(name)
+        cells = []
+        for ci, v in enumerate(r):
+            p = f"{paper[ci]}" if paper and ci < 3 and len(cfgs) == 3 else "-"
+            cells.append(f"{v:.0f} / {p}")
+        lines.append(f"| {name} ({tab['objects'][name]:g} g) | " + " | ".join(cells) + " |")
+    tot = [f"{v:.0f} / {PAPER_GRASP_TOTAL[ci] if len(cfgs) == 3 else '-'}" for ci, v in enumerate(tab["totals"])]
+    lines.append("| total | " + " | ".join(tot) + " |")
+    return "\n".join(lines) + f"\n\n{tab['attempts']} simulated attempts per cell (sim %) beside the paper's 20 (paper %).\n"
+
+
+def grasp_csv(tab: dict) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["object", "mass_g", "active_whiskers", "success_pct_sim", "success_pct_paper", "attempts"])
+    for name, r in tab["rates"].items():
+        for ci, v in enumerate(r):
+            paper = PAPER_GRASP.get(name)
+            p = paper[ci] if paper and len(tab["configurations"]) == 3 else ""
+            w.writerow([name, tab["objects"][name], len(tab["configurations"][ci]), f"{v:.1f}", p, tab["attempts"]])
+    return buf.getvalue()
+
+
+# --- displacement vs time (Fig. 8) -------------------------------------------------------------
+
+def displacement_runs(scene: Scene, design, progress=None) -> dict:
+    """Per object: marker displacement magnitude (px) of each whisker against time over trials."""
+    from whisker.sim.kinematics import whisker_body
+
+    e = scene.experiment
+    objs = [o for o in scene.objects if not e.objects or o.name in e.objects]
+    n = design.whiskers.count
+    body = whisker_body(design)
+    out = {}
+    total = len(objs) * e.trials
+    done = 0
+    for oi, o in enumerate(objs):
+        rng = np.random.default_rng([scene.scene.seed, 100 + oi])
+        series = []
+        succ = []
+        for _ in range(e.trials):
+            a = grasp_attempt(scene, design, o, list(range(n)), rng, keep=True, release=True, body=body)
+            r = a.result
+            dm = r.markers_mm[:, :, :2] - r.markers_mm[:1, :, :2]
+            series.append(np.hypot(dm[..., 0], dm[..., 1]) / design.mm_per_px)
+            succ.append(a.success)
+            done += 1
+            if progress:
+                progress(done / total)
+        arr = np.array(series)                                   # (trials, T, N) px
+        out[o.name] = {"t_s": r.t_s, "disp_px": arr, "mean": arr.mean(axis=0), "std": arr.std(axis=0),
+                       "success": succ}
+    phases = {"retract": T_DOWN, "lift": T_DOWN + T_CLOSE, "release": T_DOWN + T_CLOSE + T_LIFT + T_HOLD}
+    return {"objects": out, "phases": phases}
+
+
+def plot_displacement(d: dict, path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    objs = d["objects"]
+    fig, axes = plt.subplots(1, len(objs), figsize=(5.5 * len(objs), 3.6), squeeze=False, sharey=True)
+    for ax, (name, r) in zip(axes[0], objs.items()):
+        t = r["t_s"]
+        for i in range(r["mean"].shape[1]):
+            ax.plot(t, r["mean"][:, i], lw=1, label=f"w{i}")
+            ax.fill_between(t, r["mean"][:, i] - r["std"][:, i], r["mean"][:, i] + r["std"][:, i], alpha=0.2)
+        for k, (ph, tt) in enumerate(d["phases"].items(), 1):
+            ax.axvline(tt, color="k", ls="--", lw=0.7)
+            ax.text(tt, ax.get_ylim()[1] * 0.95 if ax.get_ylim()[1] > 0 else 1, f" ({k})", fontsize=8)
+        ax.set_title(f"{name}: mean and +-1 sd over {r['disp_px'].shape[0]} trials")
+        ax.set_xlabel("time (s)")
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("marker displacement (px)")
+    axes[0][-1].legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# --- classification dataset ----------------------------------------------------------------
+
+def classification_sample(scene: Scene, design, obj, rotation_deg: float, rng, body=None) -> np.ndarray:
+    """One sample: for each approach direction and distance, the N markers' (dx, dy) in px.
+
+    The sensor (whiskers down, tips ``tip_height`` above the table) starts 60 mm from the object's
+    centre on the approach line, moves horizontally to each recording distance (far first), and the
+    markers' pixel displacements are read there. Layout: directions x distances x whiskers x (dx, dy)
+    = 4 x 2 x 8 x 2 = 128 values for the paper's sensor, rounded to integers like the authors' data.
+    """
+    from whisker.sim.effects import plan
+    from whisker.sim.scene import scene_from_dict
+    from whisker.sim.simulate import simulate
+
+    e = scene.experiment
+    vals = []
+    speed = 100.0  # mm/s approach
+    start = 60.0
+    for k in range(e.directions):
+        ang = math.radians(360.0 * k / e.directions)
+        ux, uy = math.cos(ang), math.sin(ang)
+        dx, dy = rng.normal(0.0, e.placement_noise, 2) if e.placement_noise > 0 else (0.0, 0.0)
+        ox, oy = obj.pos[0] + dx, obj.pos[1] + dy
+        path = [[0.0, ox - start * ux, oy - start * uy, e.tip_height, rotation_deg]]
+        times = []
+        t = 0.0
+        prev = start
+        for dist in e.distances:
+            t += abs(prev - dist) / speed
+            path.append([t, ox - dist * ux, oy - dist * uy, e.tip_height, rotation_deg])
+            t += 0.15                                    # settle, then record
+            path.append([t, ox - dist * ux, oy - dist * uy, e.tip_height, rotation_deg])
+            times.append(t)
+            prev = dist
+        o = obj.model_dump()
+        o["pos"] = [ox, oy]
+        o["yaw"] = obj.yaw + rng.uniform(-e.yaw_noise, e.yaw_noise)
+        data = scene.model_dump()
+        data.update(objects=[o], sensor={"facing": "down", "path": path},
+                    actuation={"schedule": []}, experiment={"kind": "none"},
+                    scene={**data["scene"], "duration": t},
+                    fidelity={**data["fidelity"], "contact": "on"})
+        s = scene_from_dict(data)
+        res = simulate(s, design, plan(s, design), body=body, record_hz=100.0)
+        from whisker.sim.contract import marker_pixels
+        rest = marker_pixels(design, res.markers_mm[0])
+        for tt in times:
+            j = min(int(np.searchsorted(res.t_s, tt - 1e-9)), len(res.t_s) - 1)
+            px = marker_pixels(design, res.markers_mm[j]) - rest
+            vals.append(px.reshape(-1))
+    return np.rint(np.concatenate(vals)).astype(int)
+
+
+def classification_dataset(scene: Scene, design, progress=None) -> dict[str, np.ndarray]:
+    """{object: (rotations x trials, 8 * N * 2 * ...) int array} in the authors' layout."""
+    from whisker.sim.kinematics import whisker_body
+
+    e = scene.experiment
+    objs = [o for o in scene.objects if not e.objects or o.name in e.objects]
+    if not objs:
+        raise SceneError("classification experiment: the scene has no objects")
+    body = whisker_body(design)
+    out = {}
+    total = len(objs) * len(e.rotations) * e.trials
+    done = 0
+    for oi, o in enumerate(objs):
+        rng = np.random.default_rng([scene.scene.seed, 200 + oi])
+        rows = []
+        for rot in e.rotations:
+            for _ in range(e.trials):
+                rows.append(classification_sample(scene, design, o, rot, rng, body=body))
+                done += 1
+                if progress:
+                    progress(done / total)
+        out[o.name] = np.array(rows)
+    return out
+
+
+def dataset_csv(rows: np.ndarray) -> str:
+    return "".join(",".join(str(int(v)) for v in r) + "\n" for r in rows)
+
+
+def run(kind: str, scene: Scene, design, files: dict, progress=None) -> dict:
+    """Run a contact experiment, add its files to `files`, return summary entries."""
+    from whisker.sim.run import png_bytes
+
+    if kind == "grasp":
+        tab = grasp_table(scene, design, progress)
+        files["grasp_table.md"] = grasp_markdown(tab)
+        files["grasp_table.csv"] = grasp_csv(tab)
+        order = {n: bool(all(r[i] >= r[i + 1] for i in range(len(r) - 1))) for n, r in tab["rates"].items()}
+        return {"grasp": {k: v for k, v in tab.items() if k != "lifts_mm"}, "order_holds": order,
+                "headline": grasp_markdown(tab)}
+    if kind == "displacement":
+        d = displacement_runs(scene, design, progress)
+        files["displacement.png"] = png_bytes(lambda p: plot_displacement(d, p))
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        n = design.whiskers.count
+        w.writerow(["object", "t_s", *[f"mean_w{i}_px" for i in range(n)], *[f"sd_w{i}_px" for i in range(n)]])
+        spread = {}
+        for name, r in d["objects"].items():
+            for k, t in enumerate(r["t_s"]):
+                w.writerow([name, f"{t:.4f}", *(f"{v:.4g}" for v in r["mean"][k]), *(f"{v:.4g}" for v in r["std"][k])])
+            spread[name] = float(r["std"].mean())
+        files["displacement.csv"] = buf.getvalue()
+        head = ", ".join(f"{k}: mean sd {v:.2f} px" for k, v in spread.items())
+        return {"displacement_mean_sd_px": spread, "phases_s": d["phases"], "headline": f"displacement spread: {head}"}
+    if kind == "classification":
+        ds = classification_dataset(scene, design, progress)
+        for name, rows in ds.items():
+            files[f"dataset/{name}.csv"] = dataset_csv(rows)
+        shape = {k: list(v.shape) for k, v in ds.items()}
+        return {"dataset": shape, "headline": f"dataset/: {', '.join(f'{k} {v[0]}x{v[1]}' for k, v in shape.items())}"}
+    raise SceneError(f"experiment.kind {kind!r} is not known")

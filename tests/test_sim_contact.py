@@ -1,0 +1,119 @@
+"""MuJoCo contact effect: agreement with the pruned model, geometry, grasping, hard cases (step c)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import _sim_doubles
+
+_sim_doubles.install()
+mujoco = pytest.importorskip("mujoco", reason="MuJoCo (pip install mujoco) is needed for the contact effect")
+
+from whisker.design import default_design  # noqa: E402
+from whisker.sim import SceneError, plan, scene_from_dict, simulate  # noqa: E402
+from whisker.sim import paper  # noqa: E402
+from whisker.sim.kinematics import _point_mm, whisker_body  # noqa: E402
+from whisker.sim.mj import MjScene  # noqa: E402
+
+D = default_design()
+BODY = whisker_body(D)
+BALL = {"name": "foam ball", "shape": "sphere", "size": [7.0], "mass": 0.15, "friction": 0.8}
+
+
+def test_pruned_contact_equals_full_model_without_objects():
+    """No objects: the own integrator (contact pruned) matches MuJoCo (contact forced on)."""
+    base = {"scene": {"duration": 0.4, "timestep": 2e-4}, "sensor": {"facing": "down"},
+            "actuation": {"voltage": 1.0, "schedule": [{"t": 0.05, "level": 1.0}, {"t": 0.25, "level": -0.5}]},
+            "fidelity": {"heating": "off"}}
+    a = simulate(scene_from_dict(base), D)
+    full = scene_from_dict({**base, "fidelity": {"heating": "off", "contact": "on"}, "table": {"enabled": False},
+                            "contact": {"chunk": 1}})
+    b = simulate(full, D)
+    assert a.plan.solver == "free" and b.plan.solver == "mujoco"
+    assert np.ptp(a.theta_deg[:, 0, 0]) > 2.0
+    assert np.abs(a.theta_deg - b.theta_deg).max() < 0.06     # deg, of a ~3 deg swing
+
+
+def test_mujoco_joint_axes_match_kinematics():
+    s = scene_from_dict({"scene": {"duration": 0.01}, "sensor": {"facing": "up", "path": [[0, 0, 0, 0, 0]]},
+                         "fidelity": {"contact": "on"}, "table": {"enabled": False}})
+    m = MjScene(s, D, plan(s, D), BODY)
+    rng = np.random.default_rng(3)
+    th = rng.uniform(-0.2, 0.2, (D.whiskers.count, 2))
+    m.data.qpos[m.qadr] = th
+    mujoco.mj_forward(m.model, m.data)
+    coat = s.contact.tip_coating
+    s_mid = D.l_u - coat / 2
+    ids = [mujoco.mj_name2id(m.model, mujoco.mjtObj.mjOBJ_GEOM, f"tip{i}") for i in range(D.whiskers.count)]
+    world = m.data.geom_xpos[ids] * 1e3
+    arm_z = m.data.qpos[m.arm_q][2] * 1e3
+    mine = _point_mm(D, th, s_mid) + np.array([0, 0, arm_z])
+    np.testing.assert_allclose(world, mine, atol=1e-6)
+
+
+def test_grasp_holds_a_centred_foam_ball_with_eight_and_not_without_drive():
+    scene = scene_from_dict({"scene": {"timestep": 0.002}, "objects": [BALL],
+                             "experiment": {"kind": "grasp", "placement_noise": 0.0, "yaw_noise": 0.0}})
+    rng = np.random.default_rng(0)
+    a = paper.grasp_attempt(scene, D, scene.objects[0], list(range(8)), rng, keep=True)
+    assert a.success and a.lift_mm > 20
+    assert np.all(np.isfinite(a.result.theta_rad))
+    none = paper.grasp_attempt(scene, D, scene.objects[0], [], np.random.default_rng(0))
+    assert not none.success
+
+
+def test_grasp_order_small_run():
+    """8 >= 4 >= 2 whiskers on a short run (the full table: make sim-grasp / docs/sim.md)."""
+    scene = scene_from_dict({"scene": {"timestep": 0.002, "seed": 5}, "objects": [BALL],
+                             "experiment": {"kind": "grasp", "attempts": 4, "placement_noise": 2.5}})
+    tab = paper.grasp_table(scene, D)
+    r = tab["rates"]["foam ball"]
+    assert r[0] >= r[1] >= r[2] and r[0] > r[2]
+
+
+@pytest.mark.parametrize("case", ["zero_friction", "stiff", "tiny_mass"])
+def test_hard_contact_cases_stay_finite_and_bounded(case):
+    obj = dict(BALL)
+    contact = {}
+    design = D
+    if case == "zero_friction":
+        obj["friction"] = 0.0
+        contact = {"rod_friction": 0.0}
+        design = default_design("mechanics.tip_friction=0")
+    elif case == "stiff":
+        contact = {"solref_timeconst": 1e-5}
+    else:
+        obj["mass"] = 0.01                                      # 10 mg, lighter than the paper's lightest
+    scene = scene_from_dict({"scene": {"timestep": 0.002}, "objects": [obj], "contact": contact,
+                             "experiment": {"kind": "grasp", "placement_noise": 0.0}})
+    a = paper.grasp_attempt(scene, design, scene.objects[0], list(range(8)), np.random.default_rng(1), keep=True)
+    r = a.result
+    assert np.all(np.isfinite(r.theta_rad)) and np.all(np.isfinite(r.objects_mm))
+    assert np.all(np.abs(r.theta_rad) <= BODY.stop_rad + 0.02)
+    # energy of the whiskers stays within what the coils can put in (torque x full stroke) + start
+    bound = 8 * 2 * (0.5 * BODY.stiffness * BODY.stop_rad ** 2 + 1e-3 * BODY.stop_rad)
+    assert r.energy_J.max() < bound
+    assert np.abs(r.objects_mm[:, 0, :2]).max() < 200                # nothing flies away
+    if case == "zero_friction":
+        assert not a.success
+
+
+def test_large_time_step_refused_with_reason():
+    s = scene_from_dict({"scene": {"duration": 0.5, "timestep": 0.02}, "objects": [BALL],
+                         "sensor": {"path": [[0, 0, 0, 20, 0], [0.5, 0, 0, 2, 0]]}})
+    with pytest.raises(SceneError, match="timestep"):
+        simulate(s, D)
+
+
+def test_object_out_of_reach_runs_without_contact_model():
+    far = {**BALL, "pos": [300.0, 0.0]}
+    s = scene_from_dict({"scene": {"duration": 0.2, "timestep": 1e-3}, "objects": [far],
+                         "sensor": {"path": [[0, 0, 0, 20, 0], [0.2, 0, 0, 2, 0]]},
+                         "actuation": {"schedule": [{"t": 0.05, "level": 1.0}]}, "fidelity": {"heating": "off"}})
+    p = plan(s, D)
+    assert not p.built("contact") and p.solver == "free"
+    r = simulate(s, D, p)
+    assert np.all(np.isfinite(r.theta_rad)) and r.objects_mm is None
