@@ -12,7 +12,7 @@ from test_actuation_doubles import DoubleThermal, FakeClock, coil_model, double_
 from whisker.actuation import (Actuator, GpioBackend, SequenceRunner, Step, configuration, grasp_sequence,
                                mock_backend, run_sequence)
 from whisker.design import default_design
-from whisker.guard import RatingError, ThermalGuard
+from whisker.guard import RatingError, ThermalGuard, full_scale_voltage
 from whisker.pins import CoilChannel, pin_map
 
 
@@ -112,7 +112,7 @@ def test_per_whisker_levels_and_volts(design):
         assert pin_values(be, be.channels)[0] == (0.9, 0.0, None)  # others kept
         volts = np.array([3.0, -3.0, 1.6, 0, 0, 0, 0, -0.8])
         act.set_volts(volts)
-        fs = design.drive.full_scale_voltage
+        fs = full_scale_voltage(design)
         assert np.allclose([f - b for f, b, _ in pin_values(be, be.channels)], volts / fs)
 
 
@@ -121,7 +121,7 @@ def test_refusals_change_nothing(design):
     with act:
         act.retract(level=0.5)
         before = pin_values(be, be.channels)
-        top = design.drive.max_coil_voltage / design.drive.full_scale_voltage
+        top = design.drive.max_coil_voltage / full_scale_voltage(design)
         over = np.zeros(8)
         over[3] = min(1.0, top + 0.01)
         if top < 1.0:
@@ -155,11 +155,11 @@ def test_rating_refused_above_coil_rating():
 
 
 def test_driver_rating_refused():
-    # 1 ohm coils at 3.2 V would draw 3.2 A from a 2 A L298N channel
-    d = default_design("coil.resistance=1.0")
+    # 1 ohm coils on a 12 V supply would draw ~4.9 A from a 2 A L298N channel
+    d = default_design("coil.resistance=1.0", "driver.supply_voltage=12")
     thermal = DoubleThermal(d)
     guard = ThermalGuard(d, thermal=thermal, current_fn=double_current_A)
-    with pytest.raises(RatingError, match="driver_channel_current"):
+    with pytest.raises(RatingError, match="L298N.s 2 A per channel"):
         Actuator(d, mock_backend(d), guard=guard, watchdog=False, current_fn=double_current_A)
 
 

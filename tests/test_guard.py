@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 from test_actuation_doubles import DoubleThermal, FakeClock, coil_model, double_current_A
 from whisker.actuation import Actuator, mock_backend
 from whisker.design import default_design
-from whisker.guard import (RatingError, ThermalGuard, check_driver, check_levels, max_level,
-                           volts_to_levels)
+from whisker.guard import (RatingError, ThermalGuard, check_driver, check_levels, full_scale_voltage,
+                           max_level, volts_to_levels)
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +66,7 @@ def test_cut_time_matches_the_model(design):
     ts, temps, allowed = hold(g, clock, np.full(8, 1.0), 60.0, dt=0.01)
     t_cut = ts[int(np.argmin(allowed[:, 0] > 0))]
     # reference: the thermal model stepped directly with the full-duty current
-    t, temp, vfs = 0.0, thermal.ambient_C, design.drive.full_scale_voltage
+    t, temp, vfs = 0.0, thermal.ambient_C, full_scale_voltage(design)
     while temp < g.cut_C:
         temp = thermal.step(temp, current(design, vfs, temp), 0.001)
         t += 0.001
@@ -200,16 +200,16 @@ def test_level_above_rating_refused():
 def test_volts_beyond_full_scale_refused(design):
     d = default_design("drive.max_coil_voltage=10")
     with pytest.raises(RatingError, match="100 % duty"):
-        volts_to_levels(d, np.full(8, d.drive.full_scale_voltage + 0.1))
+        volts_to_levels(d, np.full(8, full_scale_voltage(d) + 0.1))
     with pytest.raises(ValueError, match="finite"):
         volts_to_levels(design, [np.nan] * 8)
 
 
 def test_driver_check(design):
     assert check_driver(design, double_current_A) == pytest.approx(
-        design.drive.full_scale_voltage / design.coil.resistance)
-    with pytest.raises(RatingError, match="2 A per channel"):
-        check_driver(default_design("coil.resistance=1.5"), double_current_A)
+        full_scale_voltage(design) / design.coil.resistance)
+    with pytest.raises(RatingError, match="L298N.s 2 A per channel"):
+        check_driver(default_design("coil.resistance=1.5", "driver.supply_voltage=12"), double_current_A)
 
 
 @settings(max_examples=40, deadline=None)
@@ -225,3 +225,15 @@ def test_allowed_never_exceeds_request(levels, temp):
     assert np.all(a * req >= 0)  # never reverses a coil
     if temp >= g.cut_C:
         assert np.all(a == 0)
+
+
+def test_full_scale_voltage_from_driver_model_or_measured(design):
+    from whisker import driver
+
+    br = driver.bridge(design.driver.type)
+    i = driver.coil_current_A(br, design.driver.supply_voltage, design.coil.resistance)
+    assert full_scale_voltage(design) == pytest.approx(i * design.coil.resistance)
+    assert 2.5 < full_scale_voltage(design) < 3.5  # 5 V minus a bipolar bridge's ~2 V
+    assert full_scale_voltage(default_design("drive.full_scale_voltage=3.2")) == 3.2
+    with pytest.raises(RatingError, match="below the L298N's drop"):
+        full_scale_voltage(default_design("driver.supply_voltage=1.0"))

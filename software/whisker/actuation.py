@@ -3,7 +3,8 @@ and the safety that de-energises every coil however the program ends.
 
 Units and signs. A *level* is a signed PWM duty in [-1, 1] per whisker: + = retraction (the tip
 moves toward the array's centre), - = extension, 0 = neutral (no current). Level x
-``drive.full_scale_voltage`` is the mean voltage at the coil (:func:`whisker.guard.volts_to_levels`).
+the coil's full-scale voltage (:func:`whisker.guard.full_scale_voltage`) is the mean voltage at the
+coil (:func:`whisker.guard.volts_to_levels`).
 
 Backend protocol (the contract with the simulator, issue 8): any object with
 
@@ -333,7 +334,7 @@ class Actuator:
     def retract(self, level: Optional[float] = None, which="all", start: int = 0) -> np.ndarray:
         """Tips toward the centre on the whiskers of configuration `which` (others neutral).
 
-        level: duty in (0, 1]; default = actuation.voltage / drive.full_scale_voltage (3 V).
+        level: duty in (0, 1]; default = actuation.voltage (3 V) / full-scale voltage.
         """
         level = self.default_level() if level is None else float(level)
         if level < 0:

@@ -211,9 +211,9 @@ class Driver(_Section):
 
 
 class Drive(_Section):
-    full_scale_voltage: float = Field(gt=0, le=50, description="V at the coil at 100 % PWM duty (measure it)")
+    full_scale_voltage: float = Field(ge=0, le=50, description=(
+        "V measured across a coil at 100 % PWM duty; 0 = from the driver model (whisker.driver)"))
     max_coil_voltage: float = Field(gt=0, le=50, description="V, coil rating: higher levels are refused")
-    driver_channel_current: float = Field(gt=0, description="A, H-bridge DC rating per channel")
     pwm_frequency: float = Field(ge=10, le=100000, description="Hz, PWM on the H-bridge inputs")
     guard_margin: float = Field(ge=0, description="C below the first thermal limit where a coil is cut")
     guard_derate_band: float = Field(ge=0, description="C below the cut-off where derating starts")

@@ -3,8 +3,8 @@ estimated temperature so that it is limited, then cut, before it reaches its the
 
 Levels are signed PWM duties in [-1, 1] (+ = retraction, tip toward the centre), the actuation
 backend protocol's unit (see :mod:`whisker.actuation`). A duty ``d`` puts, on average, ``|d| x V_fs``
-on the coil, where ``V_fs`` = ``drive.full_scale_voltage`` is the voltage at the coil at 100 % duty
-(measure it; default: 5 V supply minus the L298N's ~1.8 V saturation drop).
+on the coil, where ``V_fs`` is the voltage at the coil at 100 % duty (:func:`full_scale_voltage`:
+``drive.full_scale_voltage`` if measured, else the driver model of ``whisker.driver``).
 
 Heating. The PWM period (1 ms at the default 1 kHz) is far shorter than the coil's electrical time
 constant's effect on heating and its thermal time constant (seconds), so the coil sees a square
@@ -51,8 +51,30 @@ class RatingError(ValueError):
 # ---------------------------------------------------------------------------------------------
 
 def full_scale_voltage(design) -> float:
-    """Volts at the coil at 100 % duty (``drive.full_scale_voltage``), V."""
-    return float(design.drive.full_scale_voltage)
+    """Volts at the coil at 100 % duty, V.
+
+    ``drive.full_scale_voltage`` when > 0 (measured across a coil); when 0, the driver model
+    (``whisker.driver``): the steady current from ``driver.supply_voltage`` through the bridge's
+    drop into the coil's 20 C resistance, times that resistance.
+    """
+    if design.drive.full_scale_voltage > 0:
+        return float(design.drive.full_scale_voltage)
+    from whisker import driver
+
+    br = driver.bridge(design.driver.type)
+    r = float(design.coil.resistance)
+    v = driver.coil_current_A(br, float(design.driver.supply_voltage), r) * r
+    if not (v > 0 and math.isfinite(v)):
+        raise RatingError(f"driver.supply_voltage={design.driver.supply_voltage:g} V is below the "
+                          f"{br.name}'s drop: no voltage reaches the coil")
+    return float(v)
+
+
+def driver_current_rating_A(design) -> float:
+    """The H-bridge's DC current rating per channel, A (``whisker.driver``; L298N: 2 A)."""
+    from whisker import driver
+
+    return float(driver.bridge(design.driver.type).max_current_A)
 
 
 def max_level(design) -> float:
@@ -76,11 +98,11 @@ def check_driver(design, current_fn: Optional[Callable] = None) -> float:
     Returns the peak current (A). Raises :class:`RatingError`.
     """
     peak = peak_current_A(design, current_fn)
-    rating = float(design.drive.driver_channel_current)
+    rating = driver_current_rating_A(design)
     if not math.isfinite(peak) or peak > rating:
         raise RatingError(
-            f"a cold coil at drive.full_scale_voltage={full_scale_voltage(design):g} V draws "
-            f"{peak:.3g} A, above the driver's {rating:g} A per channel (drive.driver_channel_current)")
+            f"a cold coil at {full_scale_voltage(design):.3g} V (100 % duty) draws {peak:.3g} A, above "
+            f"the {design.driver.type}'s {rating:g} A per channel (whisker.driver)")
     return peak
 
 
@@ -129,7 +151,7 @@ def volts_to_levels(design, volts) -> np.ndarray:
     vfs = full_scale_voltage(design)
     if np.any(np.abs(v) > vfs + 1e-12):
         raise RatingError(f"{float(np.max(np.abs(v))):g} V is more than the driver delivers at 100 % "
-                          f"duty (drive.full_scale_voltage={vfs:g} V)")
+                          f"duty ({vfs:.3g} V at the coil)")
     return np.clip(v / vfs, -1.0, 1.0)
 
 

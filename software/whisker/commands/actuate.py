@@ -30,7 +30,7 @@ def config_options(f):
 
 def level_options(f):
     f = click.option("--volts", type=float, default=None,
-                     help="Mean volts at each active coil (converted with drive.full_scale_voltage).")(f)
+                     help="Mean volts at each active coil (duty = volts / the coil voltage at 100 % duty).")(f)
     f = click.option("--level", type=float, default=None,
                      help="PWM duty 0..1 on each active coil (default: actuation.voltage, the paper's 3 V).")(f)
     f = click.option("--policy", type=click.Choice(["derate", "cut"]), default="derate", show_default=True,
