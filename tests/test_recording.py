@@ -1,0 +1,205 @@
+"""Recording sessions: one clock, a table per stream, crash safety (SIGKILL), replay via whisker track."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import run_cli
+from whisker.design import default_design
+from whisker.recording import Recorder, RecordingError, load_session, read_table
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def design():
+    return default_design()
+
+
+def frame_image(i, h=48, w=64):
+    """A deterministic test image for frame i (so a reader can check every pixel)."""
+    rng = np.random.default_rng(i)
+    return rng.integers(0, 256, size=(h, w, 3), dtype=np.uint8)
+
+
+def test_round_trip(design, tmp_path):
+    out = tmp_path / "s"
+    with Recorder(out, design, meta={"trial": "t1"}) as rec:
+        for i in range(5):
+            rows = [f"{i},0.1,{w},1,2,{w * 0.5},0,1,ok,0.1,0.2,0.3,64" for w in range(8)]
+            rec.write_frame(i, frame_image(i), source_time_s=i / 30, track_rows=rows)
+            rec.log_actuation(rec.t0 + 0.01 * i, "retract" if i < 3 else "hold", np.full(8, 0.5), np.full(8, 0.4))
+            rec.log_guard(np.full(8, 25.0 + i))
+    s = load_session(out)
+    assert s.complete and s.meta["trial"] == "t1" and s.meta["frame_count"] == 5
+    assert s.meta["design"] == design.to_dict() and s.meta["digest"] == design.digest()
+    assert s.frame_index.tolist() == list(range(5))
+    assert np.all(np.diff(s.frame_time_s) >= 0)
+    assert s.tracks["dx_px"].shape == (5, 8) and s.tracks["dx_px"][3, 4] == 2.0
+    assert np.allclose(s.displacement("px")[:, 2], 1.0)
+    assert s.act_applied.shape == (5, 8) and np.allclose(s.act_applied, 0.4)
+    assert [p for _, p in s.phase_times()] == ["retract", "hold"]
+    assert s.act_time_s[1] == pytest.approx(0.01, abs=1e-6)
+    assert np.allclose(s.guard_temperatures[:, 0], 25 + np.arange(5))
+    import cv2
+
+    for i, f in enumerate(s.frame_files):
+        assert np.array_equal(cv2.imread(str(out / "frames" / f)), frame_image(i))
+
+
+def test_refuses_existing_session_and_bad_rows(design, tmp_path):
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / "x").write_text("keep me")
+    with pytest.raises(RecordingError, match="not empty"):
+        Recorder(tmp_path / "s", design)
+    with pytest.raises(RecordingError, match="image format"):
+        Recorder(tmp_path / "t", design, image_format="gif")
+    rec = Recorder(tmp_path / "u", design)
+    with pytest.raises(RecordingError, match="13 columns"):
+        rec.write_frame(0, frame_image(0), track_rows=["0,1,2"])
+    rec.close()
+    with pytest.raises(RecordingError, match="not a recording session"):
+        load_session(tmp_path / "s")
+    (tmp_path / "s" / "metadata.json").write_text("{")
+    with pytest.raises(RecordingError, match="unreadable metadata"):
+        load_session(tmp_path / "s")
+
+
+def test_torn_last_line_is_dropped(tmp_path):
+    p = tmp_path / "t.csv"
+    p.write_text("a,b\n1,2\n3,4\n5,")
+    assert read_table(p) == {"a": ["1", "3"], "b": ["2", "4"]}
+    p.write_text("a,b\n1,2\n3\n")  # a short row (never written by the recorder) is skipped too
+    assert read_table(p) == {"a": ["1"], "b": ["2"]}
+    assert read_table(tmp_path / "missing.csv") == {}
+
+
+def test_jpg_and_missing_image(design, tmp_path):
+    with Recorder(tmp_path / "s", design, image_format="jpg") as rec:
+        rec.write_frame(0, frame_image(0))
+        rec.write_frame(1, None)  # unreadable camera frame: row kept, no file
+    s = load_session(tmp_path / "s")
+    assert s.frame_files == ["000000.jpg", ""]
+
+
+CHILD = textwrap.dedent('''
+    import sys, time
+    import numpy as np
+    sys.path.insert(0, {tests!r})
+    from test_recording import frame_image
+    from whisker.design import default_design
+    from whisker.recording import Recorder
+
+    d = default_design()
+    rec = Recorder(sys.argv[1], d)
+    i = 0
+    while True:
+        rows = [f"{{i}},0,{{w}},{{i}},{{w}},{{i * 0.01}},0,1,ok,0,0,0,64" for w in range(8)]
+        rec.log_actuation(rec.clock(), "retract", np.full(8, i % 7 / 10), np.full(8, i % 7 / 10))
+        rec.write_frame(i, frame_image(i), track_rows=rows)
+        print(i, flush=True)
+        i += 1
+''')
+
+
+def test_sigkill_mid_recording_keeps_every_completed_frame(tmp_path):
+    script = tmp_path / "child.py"
+    script.write_text(CHILD.format(tests=str(ROOT / "tests")))
+    out = tmp_path / "session"
+    p = subprocess.Popen([sys.executable, str(script), str(out)], stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    done = -1
+    try:
+        while done < 25:
+            line = p.stdout.readline()
+            assert line, "the recorder child died"
+            done = int(line)
+    finally:
+        p.send_signal(signal.SIGKILL)
+        rest = p.communicate(timeout=30)[0]
+    assert p.returncode == -signal.SIGKILL
+    reported = [int(x) for x in rest.split()] or [done]
+    last_reported = max(done, *reported)
+    s = load_session(out)
+    assert not s.complete  # killed: metadata never marked complete
+    # every frame the child reported as written is there, in order, with its image and tracks
+    assert s.frame_index.tolist()[: last_reported + 1] == list(range(last_reported + 1))
+    assert len(s.frame_index) <= last_reported + 2  # at most the one being written when killed
+    import cv2
+
+    for i, f in zip(s.frame_index, s.frame_files):
+        assert np.array_equal(cv2.imread(str(out / "frames" / f)), frame_image(int(i)))
+    assert np.allclose(s.tracks["x_px"], s.frame_index[:, None])
+    assert np.allclose(s.tracks["dx_px"][:, 0], s.frame_index * 0.01)
+    assert len(s.act_time_s) >= len(s.frame_index)
+    # no temporary or torn file is mistaken for a frame
+    assert not [f for f in os.listdir(out / "frames") if f.endswith(".png") and not f[:6].isdigit()]
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    out = tmp_path_factory.mktemp("rec") / "grasp"
+    res = run_cli("record", "--source", "synthetic:14", "--out", str(out), "--backend", "mock",
+                  "--grasp", "every-second", "--retract-s", "0.1", "--hold-s", "0.2", "--release-s", "0.1",
+                  "--tail-s", "5", "--trial", "test", "-q")
+    assert res.returncode == 0, res.stderr
+    return out
+
+
+def test_cli_record_grasp_session(recorded):
+    s = load_session(recorded)
+    assert s.complete and s.meta["trial"] == "test" and s.meta["source"] == "synthetic:14"
+    assert len(s.frame_index) == 14 and all((recorded / "frames" / f).exists() for f in s.frame_files)
+    phases = [p for _, p in s.phase_times()]
+    assert phases[:5] == ["neutral", "retract", "hold", "release", "neutral"]
+    retract = s.act_applied[[p == "retract" for p in s.act_phase]][0]
+    assert np.flatnonzero(retract).tolist() == [0, 2, 4, 6]
+    assert s.tracks["x_px"].shape == (14, 8) and np.all(s.tracks["valid"] == 1)
+    # one clock: actuation times lie within the recording's frame times
+    assert s.frame_time_s[0] <= s.phase_times()[1][0] <= s.frame_time_s[-1]
+    assert s.meta["guard"]["policy"] == "derate" and len(s.meta["sequence"]) == 4
+
+
+def test_recording_replays_through_whisker_track(recorded, tmp_path):
+    csv = tmp_path / "replay.csv"
+    res = run_cli("track", "--source", str(recorded / "frames"), "--out", str(csv), "-q")
+    assert res.returncode == 0, res.stderr
+    replay = read_table(csv)
+    s = load_session(recorded)
+    x = np.array(replay["x_px"], dtype=float).reshape(-1, 8)
+    assert x.shape == s.tracks["x_px"].shape
+    assert np.allclose(x, s.tracks["x_px"], atol=1e-3)  # PNG frames are lossless
+
+
+def test_cli_record_sigkill(tmp_path):
+    """`whisker record` killed with SIGKILL mid-recording: the session reads back, frames replay."""
+    out = tmp_path / "killed"
+    p = subprocess.Popen([sys.executable, "-m", "whisker.cli", "record", "--source", "synthetic:400", "--out",
+                          str(out), "--backend", "mock", "--grasp", "all", "--hold-s", "100", "-q"],
+                         cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            fr = read_table(out / "frames.csv")
+            if len(fr.get("frame", [])) >= 8:
+                break
+            assert p.poll() is None, p.stderr.read().decode()
+            time.sleep(0.1)
+    finally:
+        p.send_signal(signal.SIGKILL)
+        p.wait(timeout=30)
+    s = load_session(out)
+    assert not s.complete and len(s.frame_index) >= 8
+    assert np.all(np.isfinite(s.tracks["x_px"]))
+    assert "retract" in s.act_phase
+    res = run_cli("track", "--source", str(out / "frames"), "-q")
+    assert res.returncode == 0, res.stderr
