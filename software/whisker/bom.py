@@ -1,0 +1,339 @@
+"""Bill of materials generated from the design: every quantity follows hw/sensor.toml.
+
+``bom_rows(design, volumes_mm3, wire)`` is pure: it takes the CAD volumes (``cad_volumes``) and the
+coil winding (``coil_wire``) and returns the rows; ``write_bom_csv`` writes them atomically. The
+committed ``hw/bom.csv`` is this module's output for the default design (``make bom``); a test
+regenerates it and fails when it differs.
+
+Quantity rules (all inputs from the Design unless stated):
+- rods, coils, magnets: one per whisker (N = whiskers.count).
+- magnet wire: N x (winding wire length + 2 x bom.coil_lead_length) x (1 + bom.wire_waste); the
+  winding length comes from ``whisker.coil.winding(design).wire_length_mm`` (issue-4 calculator).
+- L298N modules: ceil(N / 2) (two H-bridge channels each); PCA9685 boards when wiring.expander is
+  "pca9685": ceil(2 N / 16). Pin counts and jumper wires come from ``whisker.pins.pin_map``.
+- Ecoflex: membrane CAD volume x (1 + bom.ecoflex_waste), grams with membrane.density.
+- PLA: sum of the printable parts' CAD volumes x print.filament_density (from the slicer profile) x (1 + bom.pla_waste): the mass of
+  solid (100 % infill) parts, an upper bound; a slicer report (``--print-report``) gives the mass at
+  the printer's real infill in the notes.
+- LED strip: the whole cut segments that fit in the LED channel, whose circumference is
+  2 pi (cavity_radius + mount.led_strip_thickness).
+- coil supply: N x driver.supply_voltage / coil.resistance amperes, i.e. every coil at 100 % duty with
+  no bridge drop (an upper bound), rounded up to whole amperes.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from dataclasses import astuple, dataclass, fields
+from pathlib import Path
+from typing import Optional
+
+from whisker.design import Design
+from whisker.pins import PCA9685_CHANNELS, expander_boards_needed, modules_needed, pin_map
+
+COLUMNS = ("item", "category", "description", "quantity", "unit", "specification", "example_source",
+           "notes")
+
+#: Printed parts and the reference part the Ecoflex volume comes from (names of whisker.cad.parts).
+PRINTED_PARTS = ("mount", "mold_base", "mold_lid", "whisker_ring")
+MEMBRANE_PART = "membrane"
+
+#: K&J Magnetics D31: 3/16 in dia x 1/16 in thick N42 disc (the paper's magnet size).
+_KJ_D31 = (4.7625, 1.5875)
+
+
+class BomError(ValueError):
+    """The BOM cannot be made for this design (one-line message)."""
+
+
+@dataclass(frozen=True)
+class BomRow:
+    item: str
+    category: str  # buy | make | print | consumable
+    description: str
+    quantity: str  # formatted number (kept as text so the CSV is byte-stable)
+    unit: str
+    specification: str
+    example_source: str
+    notes: str
+
+    @property
+    def value(self) -> float:
+        return float(self.quantity)
+
+
+@dataclass(frozen=True)
+class CoilWire:
+    """Winding figures the BOM needs: wire length per coil (mm), where it came from, whether it fits."""
+
+    wire_length_mm: float
+    source: str
+    fits: Optional[bool] = None
+    turns: Optional[int] = None
+
+
+def coil_wire(design: Design) -> CoilWire:
+    """Wire length of one coil from the coil calculator (``whisker.coil.winding``, issue 4).
+
+    Fallback while that module is absent: the winding's geometric mean-turn length,
+    turns x pi x (outer_diameter + inner_diameter) / 2 (mm), and the source says so.
+    """
+    try:
+        from whisker.coil import winding
+    except ImportError:
+        c = design.coil
+        length = c.turns * math.pi * (c.outer_diameter + c.inner_diameter) / 2.0
+        return CoilWire(length, "mean-turn estimate (whisker.coil not available)", None, c.turns)
+    w = winding(design)
+    return CoilWire(float(w.wire_length_mm), "whisker.coil.winding", getattr(w, "fits", None),
+                    getattr(w, "turns", None))
+
+
+def cad_volumes(design: Design) -> dict[str, float]:
+    """Volumes (mm^3) of the printed parts and the membrane, measured on the CadQuery solids."""
+    from whisker.cad.parts import BY_NAME
+
+    return {name: float(BY_NAME[name].build(design).Volume())
+            for name in (*PRINTED_PARTS, MEMBRANE_PART)}
+
+
+def read_print_report(path: str | Path, design: Optional[Design] = None) -> dict[str, float]:
+    """Filament grams per printed part from the slicer report ``print_report.json``
+    (``whisker print check``, whisker.cad.printcheck): ``parts[name]["gcode"]["filament_g"]``.
+
+    With `design`, a report of another design (``design_digest``) is refused. Raises BomError
+    naming what is wrong.
+    """
+    try:
+        data = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as err:
+        raise BomError(f"cannot read the print report {path}: {err}") from None
+    if not isinstance(data, dict) or not isinstance(data.get("parts"), dict):
+        raise BomError(f"{path}: no 'parts' mapping in the print report")
+    if design is not None and data.get("design_digest") not in (None, design.digest()):
+        raise BomError(f"{path} is the print report of design {data.get('design_digest')}, not of this "
+                       f"design ({design.digest()}): run the print check for this design first")
+    grams: dict[str, float] = {}
+    for name, rec in data["parts"].items():
+        if not isinstance(rec, dict):
+            continue
+        g = rec.get("gcode") if isinstance(rec.get("gcode"), dict) else rec
+        v = g.get("filament_g")
+        if isinstance(v, (int, float)) and math.isfinite(v) and v >= 0:
+            grams[name] = float(v)
+    if not grams:
+        raise BomError(f"{path}: no part has a finite filament_g value")
+    return grams
+
+
+def _num(x: float, digits: int = 0) -> str:
+    if not math.isfinite(x):
+        raise BomError(f"non-finite BOM quantity {x}")
+    return f"{x:.{digits}f}"
+
+
+def awg(diameter_mm: float) -> int:
+    """Nearest American Wire Gauge of a bare copper diameter: d = 0.127 mm x 92^((36 - n)/39)."""
+    return round(36 - 39 * math.log(diameter_mm / 0.127) / math.log(92))
+
+
+def led_strip(design: Design) -> tuple[float, int, float]:
+    """(channel circumference mm, whole segments that fit, strip length mm) for the LED channel."""
+    circ = 2 * math.pi * (design.cavity_radius + design.mount.led_strip_thickness)
+    segments = math.floor(circ / design.bom.led_cut_pitch)
+    if segments < 1:
+        raise BomError(f"the LED channel (circumference {circ:.1f} mm) is shorter than one strip segment "
+                       f"(bom.led_cut_pitch = {design.bom.led_cut_pitch} mm)")
+    return circ, segments, segments * design.bom.led_cut_pitch
+
+
+def supply_current_A(design: Design) -> float:
+    """Upper bound of the coil supply current: every coil at 100 % duty, no bridge drop (A)."""
+    return design.whiskers.count * design.driver.supply_voltage / design.coil.resistance
+
+
+def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
+             print_grams: Optional[dict[str, float]] = None) -> list[BomRow]:
+    """The bill of materials for `design` (pure). volumes_mm3 from :func:`cad_volumes`."""
+    for name in (*PRINTED_PARTS, MEMBRANE_PART):
+        v = volumes_mm3.get(name)
+        if v is None or not math.isfinite(v) or v <= 0:
+            raise BomError(f"CAD volume of '{name}' is missing or not positive: {v}")
+    if not math.isfinite(wire.wire_length_mm) or wire.wire_length_mm <= 0:
+        raise BomError(f"coil wire length must be positive and finite, got {wire.wire_length_mm}")
+
+    d = design
+    n = d.whiskers.count
+    b = d.bom
+    channels = pin_map(d)  # raises PinMapError when the Pi cannot serve N coils
+    modules = modules_needed(n)
+    expander = d.wiring.expander == "pca9685"
+    rows: list[BomRow] = []
+
+    def add(item, category, description, quantity, unit, spec, source, notes=""):
+        rows.append(BomRow(item, category, description, quantity, unit, spec, source, notes))
+
+    w = d.whiskers
+    add("rod", "buy", "whisker rod, carbon fibre", _num(n), "pcs",
+        f"pultruded carbon-fibre rod, {w.rod_diameter:g} mm dia, cut to {w.rod_length:g} mm",
+        "RC/hobby shops: 1 mm x 500 mm carbon rods",
+        f"{math.ceil(n * w.rod_length / 500)} x 500 mm stock rod(s); tips coated with sand (paper)")
+
+    c = d.coil
+    fit = "" if wire.fits in (None, True) else "; the calculator says this winding does NOT fit the former"
+    add("coil", "make", "disc electromagnet at each whisker base", _num(n), "pcs",
+        f"{c.turns} turns of {c.wire_diameter:g} mm copper on a {c.inner_diameter:g} mm former, "
+        f"{c.outer_diameter:g} mm dia x {c.length:g} mm, about {c.resistance:g} ohm",
+        "hand-wound (docs/coil.md)",
+        f"red marker dot {c.marker_diameter:g} mm on the lower face{fit}")
+
+    per_coil = wire.wire_length_mm + 2 * b.coil_lead_length
+    total_m = n * per_coil * (1 + b.wire_waste) / 1000.0
+    add("magnet_wire", "buy", "enamelled copper magnet wire", _num(total_m, 1), "m",
+        f"{c.wire_diameter:g} mm bare copper (AWG {awg(c.wire_diameter)}), enamel class "
+        f"{d.thermal.enamel_class:g} C",
+        "electronics distributors: 0.1 mm enamelled copper wire spool",
+        f"{n} coils x ({wire.wire_length_mm / 1000:.2f} m winding [{wire.source}] + 2 x "
+        f"{b.coil_lead_length:g} mm leads) + {b.wire_waste:.0%} waste")
+
+    m = d.magnet
+    kj = (abs(m.diameter - _KJ_D31[0]) < 0.05 and abs(m.height - _KJ_D31[1]) < 0.05)
+    add("magnet", "buy", "NdFeB disc magnet in the mount wall", _num(n), "pcs",
+        f"{m.grade} NdFeB disc {m.diameter:g} mm dia x {m.height:g} mm, axially magnetised",
+        "K&J Magnetics D31 (3/16 x 1/16 in)" if kj else "magnet suppliers (custom size)",
+        f"N pole faces the coil; max {m.max_temperature:g} C")
+
+    mem = d.membrane
+    vol_ml = volumes_mm3[MEMBRANE_PART] / 1000.0
+    grams = vol_ml * mem.density * (1 + b.ecoflex_waste)
+    add("ecoflex", "buy", f"{mem.material} silicone for the membrane", _num(grams, 1), "g",
+        f"{mem.material}, 1A:1B by weight, density {mem.density:g} g/cm^3",
+        "Smooth-On (trial unit)",
+        f"membrane CAD volume {vol_ml:.2f} cm^3 + {b.ecoflex_waste:.0%} waste")
+
+    from whisker.cad.parts import BY_NAME
+
+    pla_total = 0.0
+    for name in PRINTED_PARTS:
+        g = volumes_mm3[name] / 1000.0 * d.print.filament_density
+        pla_total += g
+        sliced = ""
+        if print_grams and name in print_grams:
+            sliced = f"; slicer: {print_grams[name]:.1f} g at its infill"
+        add(f"print_{name}", "print", BY_NAME[name].description, "1", "pcs",
+            f"PLA, solid volume {volumes_mm3[name] / 1000:.2f} cm^3 = {g:.1f} g at 100 % infill",
+            "make stl (exports/)", f"print with exports/{name}.stl{sliced}")
+    sliced_total = ""
+    if print_grams and all(p in print_grams for p in PRINTED_PARTS):
+        sliced_total = f"; slicer total {sum(print_grams[p] for p in PRINTED_PARTS):.1f} g"
+    add("pla", "buy", "PLA filament for the printed parts", _num(pla_total * (1 + b.pla_waste), 1), "g",
+        f"1.75 mm PLA, density {d.print.filament_density:g} g/cm^3", "any filament vendor",
+        f"{len(PRINTED_PARTS)} parts at 100 % infill (upper bound) + {b.pla_waste:.0%} waste{sliced_total}")
+
+    add("h_bridge", "buy", f"{d.driver.type} dual H-bridge module", _num(modules), "pcs",
+        "2 channels each (IN1/IN2/ENA, IN3/IN4/ENB), ENA/ENB jumpers fitted, 5V-EN jumper removed "
+        f"(fed {d.driver.supply_voltage:g} V on +12V and +5V)",
+        "common L298N motor-driver boards",
+        f"ceil({n}/2); PWM on IN1/IN2 sets the mean coil voltage, so the paper's voltage divider "
+        "is not needed (docs/wiring.md)")
+
+    if expander:
+        boards = expander_boards_needed(n)
+        add("pwm_expander", "buy", "PCA9685 16-channel I2C PWM board", _num(boards), "pcs",
+            f"I2C at 0x{d.wiring.pca9685_address:02X}.. (address jumpers), {PCA9685_CHANNELS} channels, "
+            "3.3 V logic from the Pi",
+            "Adafruit 815 or compatible", f"2 channels per coil: ceil(2 x {n} / 16)")
+
+    add("raspberry_pi", "buy", "Raspberry Pi 4 Model B", "1", "pcs",
+        "2 GB or more, 40-pin header, CSI camera port", "Raspberry Pi approved resellers",
+        "with the official 5.1 V 3 A USB-C supply and a 16 GB+ microSD card")
+    add("pi_supply", "buy", "Raspberry Pi USB-C power supply", "1", "pcs", "5.1 V, 3 A, USB-C",
+        "Raspberry Pi approved resellers", "")
+    add("microsd", "buy", "microSD card for the Pi OS", "1", "pcs", "16 GB or more, class A1",
+        "any", "")
+
+    cam = d.camera
+    add("camera", "buy", "Raspberry Pi camera board with 160 deg M12 lens", "1", "pcs",
+        f"OV5647-class board {cam.board_width:g} x {cam.board_height:g} mm, M2 holes "
+        f"{cam.hole_spacing_x:g} x {cam.hole_spacing_y:g} mm, 160 deg M12 lens, used at "
+        f"{cam.width_px} x {cam.height_px}",
+        "Raspberry Pi camera boards with M12 mount (e.g. 'Pi camera 160 degree')",
+        "focus the lens on the coil plane")
+    add("csi_cable", "buy", "camera flat cable", "1", "pcs",
+        f"15-pin 1 mm pitch CSI ribbon, {d.mount.ribbon_width:g} mm wide, 300 mm",
+        "Raspberry Pi approved resellers", "leaves the mount through the ribbon slot at -y")
+
+    circ, segments, strip_mm = led_strip(d)
+    add("led_strip", "buy", "LED strip lighting the coils", _num(strip_mm), "mm",
+        f"5 V 3528 LED strip, {d.mount.led_strip_width:g} mm wide, {segments} segment(s) of "
+        f"{b.led_cut_pitch:g} mm", "any 5 V 3528 strip (60 LED/m)",
+        f"LED channel circumference {circ:.1f} mm = 2 pi (cavity radius + strip thickness); whole "
+        "segments only")
+
+    amps = supply_current_A(d)
+    add("coil_supply", "buy", "DC supply for the coils and LEDs", "1", "pcs",
+        f"{d.driver.supply_voltage:g} V, at least {math.ceil(amps)} A",
+        "bench supply or 5 V wall adapter",
+        f"{n} coils x {d.driver.supply_voltage:g} V / {c.resistance:g} ohm = {amps:.2f} A at 100 % duty "
+        "(upper bound); share its GND with the Pi")
+
+    gpio_wires = sum(2 + (ch.enable is not None) for ch in channels if ch.bus == "gpio")
+    if expander:
+        jumpers = 4 + 2 * n + modules  # Pi->PCA9685 (3V3, GND, SDA, SCL), PCA->IN, GND per module
+    else:
+        jumpers = gpio_wires + modules  # IN1/IN2 per coil + one GND per module
+    add("jumpers", "buy", "female-female jumper wires", _num(jumpers), "pcs",
+        "2.54 mm Dupont, 20 cm", "any",
+        "from the pin map (hw/pcb/generated/pinout.md): 2 per coil + 1 GND per module"
+        + (" + 4 for the PCA9685 (3V3, GND, SDA, SCL)" if expander else ""))
+    add("power_wire", "buy", "power wire supply -> modules", _num(2 * modules), "pcs",
+        "22 AWG stranded, red/black", "any", "+5 V and GND to each module's screw terminals")
+
+    mt = d.mount
+    add("m3_screw", "buy", "M3 screws for the robot adapter", _num(mt.mounting_hole_count), "pcs",
+        f"M3 socket head, engaging at most {mt.mounting_hole_depth:g} mm", "any",
+        f"{mt.mounting_hole_count} blind {mt.mounting_hole_diameter:g} mm holes on a "
+        f"{mt.mounting_bolt_radius:g} mm radius; length = adapter thickness + thread engagement")
+    add("m2_screw", "buy", "M2 screws for the camera board", "4", "pcs",
+        f"M2 x 6 mm self-tapping for plastics (holes {cam.hole_diameter:g} mm)", "any",
+        f"camera holes {cam.hole_spacing_x:g} x {cam.hole_spacing_y:g} mm")
+
+    add("glue", "consumable", "glue for rods, coils, magnets", "1", "set",
+        "silicone adhesive for rod-membrane joints; cyanoacrylate for coils on rods and magnets in "
+        "pockets", "Smooth-On Sil-Poxy; any CA glue", "")
+    add("paint", "consumable", "paint: grey membrane top, red coil markers", "1", "set",
+        "silicone-compatible grey paint; red paint marker", "any", "")
+
+    for r in rows:  # one-line fields keep the CSV diffable
+        for f in fields(r):
+            if "\n" in getattr(r, f.name):
+                raise BomError(f"BOM field {f.name} of {r.item} contains a newline")
+    return rows
+
+
+def bom_csv(rows: list[BomRow]) -> str:
+    """CSV text (header + rows, \\n line ends) of a BOM."""
+    buf = io.StringIO()
+    wr = csv.writer(buf, lineterminator="\n")
+    wr.writerow(COLUMNS)
+    for r in rows:
+        wr.writerow(astuple(r))
+    return buf.getvalue()
+
+
+def make_bom(design: Design, print_report: str | Path | None = None) -> list[BomRow]:
+    """The BOM with CAD volumes measured now and the coil calculator's wire length."""
+    pin_map(design)  # refuse an unwireable design before building any CAD
+    grams = read_print_report(print_report, design) if print_report else None
+    return bom_rows(design, cad_volumes(design), coil_wire(design), grams)
+
+
+def write_bom_csv(rows: list[BomRow], path: str | Path) -> Path:
+    from whisker.files import atomic_write_text
+
+    path = Path(path)
+    atomic_write_text(path, bom_csv(rows))
+    return path

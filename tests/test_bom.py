@@ -1,0 +1,170 @@
+"""Bill of materials (whisker.bom): the committed hw/bom.csv is current, quantities follow the
+design (6, 8, 12 whiskers), and broken inputs are refused with a message naming what is wrong."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from conftest import ROOT, run_cli
+from whisker.bom import (MEMBRANE_PART, PRINTED_PARTS, BomError, CoilWire, awg, bom_csv, bom_rows,
+                         cad_volumes, coil_wire, led_strip, make_bom, read_print_report)
+from whisker.design import default_design
+from whisker.pins import PinMapError
+
+EXPANDER = 'wiring.expander="pca9685"'
+
+
+def _by_item(rows):
+    return {r.item: r for r in rows}
+
+
+def _fake_volumes(scale=1.0):
+    return {name: 1000.0 * scale * (i + 1) for i, name in enumerate((*PRINTED_PARTS, MEMBRANE_PART))}
+
+
+def test_committed_bom_is_current():
+    committed = (ROOT / "hw" / "bom.csv").read_text()
+    fresh = bom_csv(make_bom(default_design()))
+    assert committed == fresh, "hw/bom.csv is out of date with the design: run `make bom` and commit it"
+
+
+def test_bom_csv_columns_and_rows_parse():
+    text = (ROOT / "hw" / "bom.csv").read_text()
+    rows = list(csv.DictReader(io.StringIO(text)))
+    for col in ("item", "description", "quantity", "unit", "specification", "example_source", "notes"):
+        assert col in rows[0]
+    items = {r["item"] for r in rows}
+    assert {"rod", "coil", "magnet", "magnet_wire", "ecoflex", "pla", "h_bridge", "raspberry_pi",
+            "camera", "led_strip", "m3_screw", "m2_screw"} <= items
+    for r in rows:
+        q = float(r["quantity"])
+        assert math.isfinite(q) and q > 0, r
+
+
+@pytest.fixture(scope="module")
+def boms():
+    return {n: _by_item(make_bom(default_design(f"whiskers.count={n}", *([EXPANDER] if n > 11 else []))))
+            for n in (6, 8, 12)}
+
+
+def test_quantities_follow_the_whisker_count(boms):
+    for n, b in boms.items():
+        for item in ("rod", "coil", "magnet"):
+            assert b[item].value == n
+        assert b["h_bridge"].value == math.ceil(n / 2)
+    # 12 coils = twice 6: per-coil items double exactly, wire to rounding.
+    assert boms[12]["h_bridge"].value == 2 * boms[6]["h_bridge"].value
+    assert boms[12]["magnet_wire"].value == pytest.approx(2 * boms[6]["magnet_wire"].value, abs=0.11)
+    assert boms[8]["magnet_wire"].value == pytest.approx(8 / 6 * boms[6]["magnet_wire"].value, abs=0.11)
+    assert "pwm_expander" not in boms[6] and "pwm_expander" not in boms[8]
+    assert boms[12]["pwm_expander"].value == 2  # 24 channels on 16-channel boards
+    # Direct GPIO: 2 signal jumpers per coil + 1 GND per module; expander adds its 4 bus wires.
+    assert boms[6]["jumpers"].value == 2 * 6 + 3
+    assert boms[12]["jumpers"].value == 4 + 2 * 12 + 6
+    # Supply current bound scales with N.
+    assert "at least 5 A" in boms[6]["coil_supply"].specification
+    assert "at least 9 A" in boms[12]["coil_supply"].specification
+
+
+def test_material_quantities_come_from_cad_volumes():
+    d = default_design()
+    vol = cad_volumes(d)
+    b = _by_item(bom_rows(d, vol, coil_wire(d)))
+    ecoflex = vol[MEMBRANE_PART] / 1000 * d.membrane.density * (1 + d.bom.ecoflex_waste)
+    assert b["ecoflex"].value == pytest.approx(ecoflex, abs=0.05)
+    pla = sum(vol[p] for p in PRINTED_PARTS) / 1000 * d.print.filament_density * (1 + d.bom.pla_waste)
+    assert b["pla"].value == pytest.approx(pla, abs=0.05)
+    w = coil_wire(d)
+    wire = d.whiskers.count * (w.wire_length_mm + 2 * d.bom.coil_lead_length) * (1 + d.bom.wire_waste) / 1000
+    assert b["magnet_wire"].value == pytest.approx(wire, abs=0.05)
+    # A bigger waste allowance gives more material, nothing else changes.
+    d2 = default_design("bom.ecoflex_waste=1.0")
+    b2 = _by_item(bom_rows(d2, vol, w))
+    assert b2["ecoflex"].value > b["ecoflex"].value and b2["rod"] == b["rod"]
+
+
+def test_led_strip_fits_its_channel():
+    d = default_design()
+    circ, segments, length = led_strip(d)
+    assert circ == pytest.approx(2 * math.pi * (d.cavity_radius + d.mount.led_strip_thickness))
+    assert length <= circ < length + d.bom.led_cut_pitch
+    with pytest.raises(BomError, match="LED channel"):
+        led_strip(default_design("bom.led_cut_pitch=1000"))
+
+
+@settings(max_examples=20, deadline=None)
+@given(n=st.integers(1, 11), scale=st.floats(0.01, 100), wire=st.floats(1.0, 1e5))
+def test_bom_rows_identities(n, scale, wire):
+    d = default_design(f"whiskers.count={n}")
+    b = _by_item(bom_rows(d, _fake_volumes(scale), CoilWire(wire, "test")))
+    assert b["rod"].value == b["coil"].value == b["magnet"].value == n
+    assert b["h_bridge"].value == math.ceil(n / 2)
+    assert b["jumpers"].value == 2 * n + math.ceil(n / 2)
+    for r in b.values():
+        assert math.isfinite(r.value) and r.value >= 0 and "\n" not in r.notes
+
+
+@pytest.mark.parametrize("bad", [0.0, -5.0, float("nan"), float("inf"), None])
+def test_bad_volumes_are_refused(bad):
+    vol = _fake_volumes()
+    if bad is None:
+        del vol[MEMBRANE_PART]
+    else:
+        vol[MEMBRANE_PART] = bad
+    with pytest.raises(BomError, match="membrane"):
+        bom_rows(default_design(), vol, CoilWire(1000.0, "test"))
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), float("inf")])
+def test_bad_wire_length_is_refused(bad):
+    with pytest.raises(BomError, match="wire length"):
+        bom_rows(default_design(), _fake_volumes(), CoilWire(bad, "test"))
+
+
+def test_too_many_coils_for_the_pi_is_refused():
+    with pytest.raises(PinMapError, match="PCA9685"):
+        bom_rows(default_design("whiskers.count=12"), _fake_volumes(), CoilWire(1000.0, "test"))
+
+
+def test_print_report_is_read_and_checked(tmp_path):
+    d = default_design()
+    report = {"design_digest": d.digest(),
+              "parts": {p: {"name": p, "gcode": {"filament_g": 10.0 + i}} for i, p in enumerate(PRINTED_PARTS)}}
+    path = tmp_path / "print_report.json"
+    path.write_text(json.dumps(report))
+    grams = read_print_report(path, d)
+    assert grams == {p: 10.0 + i for i, p in enumerate(PRINTED_PARTS)}
+    b = _by_item(bom_rows(d, _fake_volumes(), CoilWire(1000.0, "test"), grams))
+    assert "slicer: 10.0 g" in b["print_mount"].notes and "slicer total 46.0 g" in b["pla"].notes
+    report["design_digest"] = "0000000000000000"
+    path.write_text(json.dumps(report))
+    with pytest.raises(BomError, match="another|not of this design"):
+        read_print_report(path, d)
+    path.write_text("{not json")
+    with pytest.raises(BomError, match="cannot read"):
+        read_print_report(path, d)
+    path.write_text(json.dumps({"parts": {"mount": {"gcode": {"filament_g": float("nan")}}}}).replace("NaN", "NaN"))
+    with pytest.raises(BomError, match="finite"):
+        read_print_report(path)
+
+
+def test_awg():
+    assert awg(0.101) == 38 and awg(0.127) == 36 and awg(0.255) == 30
+
+
+def test_cli_bom(tmp_path):
+    out = tmp_path / "bom6.csv"
+    res = run_cli("hw", "bom", "--set", "whiskers.count=6", "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    rows = {r["item"]: r for r in csv.DictReader(out.open())}
+    assert rows["rod"]["quantity"] == "6" and rows["h_bridge"]["quantity"] == "3"
+    res = run_cli("hw", "bom", "--set", "whiskers.count=12", "--out", str(tmp_path / "bom12.csv"))
+    assert res.returncode == 2 and not (tmp_path / "bom12.csv").exists()
+    assert "PCA9685" in res.stderr and len(res.stderr.strip().splitlines()) == 1

@@ -1,0 +1,157 @@
+"""Driver wiring (whisker.pcb): SKiDL circuit from the pin map, ERC counted (0 errors on the
+default design, a deliberately wrong net fails), committed outputs current, CLI refusals."""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+
+import pytest
+
+from conftest import ROOT, run_cli
+from whisker.design import default_design
+from whisker.pcb import build as pcb_build
+from whisker.pcb import netlist, pinout
+from whisker.pins import HEADER_PIN, PinMapError, modules_needed, pin_map
+
+EXPANDER = 'wiring.expander="pca9685"'
+GENERATED = ROOT / "hw" / "pcb" / "generated"
+
+
+def _net_pins(net):
+    return {(p.part.ref, str(p.num)) for p in net.pins}
+
+
+@pytest.fixture(scope="module")
+def default_board():
+    return netlist.build_circuit(default_design())
+
+
+def test_default_design_erc_clean(default_board):
+    report = netlist.run_erc(default_board)
+    assert report.errors == 0 and report.warnings == 0, report.messages
+
+
+@pytest.mark.parametrize("overrides", [("whiskers.count=1",), ("whiskers.count=5",), ("whiskers.count=6",),
+                                       ("whiskers.count=11",), ("whiskers.count=12", EXPANDER),
+                                       ("whiskers.count=17", EXPANDER)])
+def test_other_designs_erc_clean(overrides):
+    d = default_design(*overrides)
+    board = netlist.build_circuit(d)
+    report = netlist.run_erc(board)
+    assert report.errors == 0 and report.warnings == 0, report.messages
+    n = d.whiskers.count
+    assert sum(1 for r in board.parts if r.startswith("L")) == n
+    assert sum(1 for r in board.parts if re.fullmatch(r"U\d", r) or re.fullmatch(r"U\d\d", r)) == modules_needed(n)
+
+
+def test_two_outputs_joined_fails_erc():
+    board = netlist.build_circuit(default_design())
+    board.nets["COIL0_FWD"] += board.nets["COIL1_FWD"]  # two Pi GPIO outputs on one net
+    report = netlist.run_erc(board)
+    assert report.errors >= 1 and not report.ok
+    assert any("OUTPUT connected to OUTPUT" in m for m in report.messages)
+
+
+def test_bridge_outputs_shorted_fails_erc():
+    board = netlist.build_circuit(default_design())
+    u = board.parts["U1"]
+    u["OUT1"] += u["OUT3"]
+    assert netlist.run_erc(board).errors >= 1
+
+
+def test_erc_counts_reset_between_runs():
+    bad = netlist.build_circuit(default_design())
+    bad.nets["COIL0_FWD"] += bad.nets["COIL0_BWD"]
+    assert netlist.run_erc(bad).errors >= 1
+    assert netlist.run_erc(netlist.build_circuit(default_design())).errors == 0
+
+
+def test_build_refuses_erc_errors_and_keeps_old_output(tmp_path, monkeypatch):
+    d = default_design()
+    out = tmp_path / "pcb"
+    pcb_build.build(d, out, draw=False)
+    before = (out / "pinout.csv").read_text()
+    real = netlist.build_circuit
+
+    def broken(design):
+        board = real(design)
+        board.nets["COIL2_FWD"] += board.nets["COIL3_BWD"]
+        return board
+
+    monkeypatch.setattr(netlist, "build_circuit", broken)
+    with pytest.raises(pcb_build.ErcFailed, match=r"ERC found \d+ error"):
+        pcb_build.build(d, out, draw=False)
+    assert (out / "pinout.csv").read_text() == before
+
+
+def test_nets_follow_the_pin_map(default_board):
+    for ch in pin_map(default_design()):
+        fwd = _net_pins(default_board.nets[f"COIL{ch.whisker}_FWD"])
+        assert ("J1", str(HEADER_PIN[ch.forward])) in fwd
+        assert (f"U{ch.module + 1}", {"A": "1", "B": "3"}[ch.channel]) in fwd  # IN1 / IN3
+        coil = _net_pins(default_board.nets[f"COIL{ch.whisker}_A"])
+        assert (f"L{ch.whisker + 1}", "1") in coil
+
+
+def test_expander_nets():
+    d = default_design("whiskers.count=12", EXPANDER)
+    board = netlist.build_circuit(d)
+    sda = _net_pins(board.nets["I2C_SDA"])
+    assert ("J1", "3") in sda and ("U101", "4") in sda and ("U102", "4") in sda
+    ch = pin_map(d)[9]
+    fwd = _net_pins(board.nets["COIL9_FWD"])
+    assert (f"U{101 + ch.address - 0x40}", str(7 + ch.forward)) in fwd  # PWMn is pin 7 + n
+
+
+def test_netlist_is_balanced_kicad_export(default_board):
+    text = netlist.netlist_text(default_board)
+    depth = 0
+    for c in text:
+        depth += (c == "(") - (c == ")")
+        assert depth >= 0
+    assert depth == 0 and text.lstrip().startswith("(export")
+    assert len(re.findall(r"\(comp\b", text)) == len(default_board.parts)
+    assert len(re.findall(r"\(net\b", text)) == len(default_board.nets)
+
+
+def _stable(text):
+    return re.sub(r'\(tool "[^"]*"\)', "", text)
+
+
+def test_committed_outputs_are_current(tmp_path):
+    d = default_design()
+    assert (GENERATED / "pinout.csv").read_text() == pinout.pinout_csv(d), "run `make pcb` and commit"
+    assert (GENERATED / "pinout.md").read_text() == pinout.pinout_markdown(d), "run `make pcb` and commit"
+    fresh = netlist.netlist_text(netlist.build_circuit(d))
+    assert _stable((GENERATED / "driver.net").read_text()) == _stable(fresh), "run `make pcb` and commit"
+    summary = json.loads((GENERATED / "summary.json").read_text())
+    assert summary["erc_errors"] == 0 and summary["whiskers"] == d.whiskers.count
+
+
+def test_pinout_rows():
+    for n in (6, 8):
+        d = default_design(f"whiskers.count={n}")
+        rows = pinout.pinout_rows(d)
+        assert len(rows) == 2 * n
+        assert len({r["source"] for r in rows}) == 2 * n
+        assert all(r["header_pin"] for r in rows)
+    rows6 = pinout.pinout_rows(default_design("whiskers.count=6"))
+    assert [r["source"] for r in rows6] == [r["source"] for r in pinout.pinout_rows(default_design())][:12]
+
+
+def test_cli_pcb(tmp_path):
+    out = tmp_path / "pcb6"
+    res = run_cli("hw", "pcb", "--set", "whiskers.count=6", "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    assert "ERC 0 errors" in res.stdout
+    for f in ("pinout.csv", "pinout.md", "wiring.png", "driver.net", "erc.txt", "summary.json"):
+        assert (out / f).stat().st_size > 0
+    assert (out / "wiring.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    rows = list(csv.DictReader((out / "pinout.csv").open()))
+    assert len(rows) == 12
+    res = run_cli("hw", "pcb", "--set", "whiskers.count=12", "--out", str(tmp_path / "pcb12"))
+    assert res.returncode == 2 and "PCA9685" in res.stderr and not (tmp_path / "pcb12").exists()
+    res = run_cli("hw", "pins", "--set", "whiskers.count=12", "--set", EXPANDER)
+    assert res.returncode == 0 and "PCA9685@0x41" in res.stdout
