@@ -93,7 +93,9 @@ class CoilThermal:
     @property
     def time_constant_s(self) -> float:
         """Cooling time constant near ambient, s (C / G)."""
-        return self.heat_capacity_J_per_K / float(self.conductance_W_per_K(self.ambient_C))
+        if not hasattr(self, "_tau"):
+            self._tau = self.heat_capacity_J_per_K / float(self.conductance_W_per_K(self.ambient_C))
+        return self._tau
 
     def _rate(self, T, power):
         return (power - self.loss_W(T)) / self.heat_capacity_J_per_K
@@ -110,16 +112,23 @@ class CoilThermal:
         n = max(1, int(math.ceil(dt / (0.1 * self.time_constant_s))))
         h = dt / n
         C = self.heat_capacity_J_per_K
+        # scalar arithmetic (no numpy): the simulator and the guard call this in their loops
+        r20, alpha, ta = self.r20_ohm, _coil.ALPHA20_PER_K, self.ambient_C
+        g_lin = self.h * self.area_m2 + self.g_rod
+        g_rad = self.emissivity * SIGMA * self.area_m2
+        ta4 = (ta + KELVIN) ** 4
+        i2 = I * I
         for _ in range(n):
-            p = I * I * float(self.resistance(T))
-            a = (p - float(self.loss_W(T))) / C                       # dT/dt at T
-            b = (I * I * self.r20_ohm * _coil.ALPHA20_PER_K - float(self.conductance_W_per_K(T))) / C
+            tk = T + KELVIN
+            p = i2 * r20 * (1.0 + alpha * (T - 20.0))
+            a = (p - g_lin * (T - ta) - g_rad * (tk ** 4 - ta4)) / C          # dT/dt at T
+            b = (i2 * r20 * alpha - g_lin - 4.0 * g_rad * tk ** 3) / C       # d(dT/dt)/dT
             x = b * h
             if abs(x) < 1e-8:
                 T = T + a * h
             else:
                 T = T + a * math.expm1(min(x, 50.0)) / b
-            T = min(T, 5000.0)  # physically meaningless beyond; keeps runaway finite
+            T = min(max(T, -KELVIN + 1.0), 5000.0)  # physically meaningless beyond; keeps runaway finite
         return T
 
     def step_voltage(self, temperature_C: float, volts: float, dt_s: float, duty: float = 1.0) -> float:

@@ -211,14 +211,20 @@ def thermal(design, volts, duty, seconds, step):
 @cli.command()
 @coil_options
 @click.option("--volts", type=float, default=None, help="Target volts across the coil (default: actuation.voltage).")
+@click.option("--amps", type=float, default=None, help="Target coil current instead (A, cold coil).")
 @click.option("--series", type=click.Choice(["E24", "E96"]), default="E24", show_default=True)
 @_guard
-def driver(design, volts, series):
+def driver(design, volts, amps, series):
     """Bridge drop, supply needed, series resistor / divider / PWM, and the alternative drivers."""
     from whisker.coil_report import build_report, format_report
 
     from whisker import driver as drv
+    from whisker.coil import resistance_ohm
 
+    if amps is not None:
+        if volts is not None:
+            fail("give --volts or --amps, not both")
+        volts = amps * resistance_ohm(design, 20.0)
     rep = build_report(design, volts)
     rep["driver"] = drv.plan(design, volts, series=series)
     text = format_report(rep)
