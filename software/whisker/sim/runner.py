@@ -18,7 +18,28 @@ def run_scene(scene, design, plan, out: Path, progress=None) -> dict:
     summary: dict = {"scene": scene.scene.name, "experiment": kind, "design_digest": design.digest(),
                      "effects": plan.names, "solver": plan.solver}
     if kind == "none":
-        res = simulate(scene, design, plan, progress=progress)
+        cam_on = plan.built("camera")
+        res = simulate(scene, design, plan, progress=(lambda f: progress(0.5 * f)) if progress and cam_on else progress,
+                       record_hz=max(200.0, scene.camera.fps))
+        if cam_on:
+            from whisker.sim.camera import camera_run, png_frame, video_bytes
+            keep = scene.outputs.frames or scene.outputs.video
+            cr = camera_run(scene, design, res, keep_frames=keep, track=plan.built("tracking"),
+                            progress=(lambda f: progress(0.5 + 0.5 * f)) if progress else None)
+            if scene.outputs.frames:
+                for k, img in enumerate(cr.frames):
+                    files[f"frames/frame_{k:05d}.png"] = png_frame(img)
+            if scene.outputs.video:
+                files["video.mp4"] = video_bytes(cr.frames, scene.camera.fps)
+            if cr.est_tip_mm is not None:
+                rows = ["t_s,whisker,true_tip_dx_mm,true_tip_dy_mm,est_tip_dx_mm,est_tip_dy_mm,valid"]
+                for k, t in enumerate(cr.t_s):
+                    for i in range(cr.true_tip_mm.shape[1]):
+                        tx, ty = cr.true_tip_mm[k, i]
+                        ex_, ey = cr.est_tip_mm[k, i]
+                        rows.append(f"{t:.6g},{i},{tx:.6g},{ty:.6g},{ex_:.6g},{ey:.6g},{int(cr.valid[k, i])}")
+                files["camera_tracks.csv"] = "\n".join(rows) + "\n"
+            summary["camera"] = cr.summary()
         if scene.outputs.tracks:
             files["tracks.csv"] = tracks_csv(res)
         if scene.outputs.plots and len(res.t_s) > 1:
@@ -31,6 +52,10 @@ def run_scene(scene, design, plan, out: Path, progress=None) -> dict:
         if res.info:
             summary.update(res.info)
         summary["headline"] = f"final tilt (deg): {', '.join(f'{x:+.2f}' for x in th)}"
+        if "camera" in summary and "tip_rms_mm" in summary["camera"]:
+            c = summary["camera"]
+            summary["headline"] += (f"\ncamera -> tracker -> geometry: tip RMS error {c['tip_rms_mm']:.4f} mm "
+                                    f"(max {c['tip_max_mm']:.4f} mm) over {c['frames']} frames")
     elif kind == "angle_vs_voltage":
         r = ex.angle_vs_voltage(scene, design)
         files["angle_vs_voltage.md"] = ex.angle_table(r)

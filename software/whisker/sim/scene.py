@@ -165,6 +165,7 @@ class CameraSpec(_S):
     noise_sigma: float = Field(2.0, ge=0, le=100, description="grey levels of Gaussian noise")
     blur_px: float = Field(0.8, ge=0, le=20, description="px, Gaussian blur sigma")
     method: str = Field("paper", description="tracking method (whisker.tracking)")
+    geometry: Literal["paper", "exact"] = Field("paper", description="pixels -> tip model (whisker.geometry)")
 
 
 class Outputs(_S):

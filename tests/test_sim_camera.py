@@ -1,0 +1,54 @@
+"""Camera effect end to end: scene -> rendered frames -> tracker -> geometry vs ground truth (step d)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import _sim_doubles
+
+_sim_doubles.install()
+pytest.importorskip("whisker.render", reason="whisker.render (issue 6) not installed")
+pytest.importorskip("whisker.tracking", reason="whisker.tracking (issue 6) not installed")
+pytest.importorskip("cv2", reason="OpenCV is needed by the renderer and the tracker")
+
+from whisker.design import default_design  # noqa: E402
+from whisker.sim import plan, scene_from_dict, simulate  # noqa: E402
+from whisker.sim.camera import camera_run  # noqa: E402
+
+D = default_design()
+
+
+def _scene(method="roi", geometry="exact", **cam):
+    return scene_from_dict({
+        "scene": {"duration": 0.3, "timestep": 1e-3, "seed": 4}, "sensor": {"facing": "up"},
+        "actuation": {"voltage": 3.0, "schedule": [{"t": 0.0, "level": 0.5, "whiskers": [0, 2, 4, 6]},
+                                                   {"t": 0.0, "level": -0.8, "whiskers": [1, 3, 5, 7]}]},
+        "camera": {"enabled": True, "fps": 20, "method": method, "geometry": geometry, **cam},
+        "fidelity": {"heating": "off", "solver": "dynamic"}})
+
+
+def test_end_to_end_tip_error_small_with_roi_tracker():
+    s = _scene()
+    p = plan(s, D)
+    assert p.built("camera") and p.built("tracking")
+    r = simulate(s, D, p)
+    cr = camera_run(s, D, r)
+    assert len(cr.t_s) == 7 and cr.valid.all()
+    assert np.abs(cr.true_tip_mm).max() > 3.0               # the whiskers really moved (mm at the tips)
+    assert cr.tip_rms_mm < 0.05 and cr.px_rms < 0.1
+
+
+def test_end_to_end_paper_pipeline_within_a_millimetre():
+    s = _scene(method="paper", geometry="paper")
+    cr = camera_run(s, D, simulate(s, D))
+    assert cr.valid.mean() > 0.8 and cr.tip_rms_mm < 1.0   # the paper pipeline loses a few extended markers
+
+
+def test_camera_pruned_when_off_or_nothing_asked():
+    s = _scene()
+    off = s.with_(camera={**s.camera.model_dump(), "enabled": False})
+    assert not plan(off, D).built("camera") and "camera off" in plan(off, D).effect("camera").reason
+    none = s.with_(outputs={"tracks": False, "frames": False, "video": False})
+    p = plan(none, D)
+    assert not p.built("camera") and not p.built("tracking")
