@@ -6,6 +6,7 @@
 2. Thermal integrator: ``CoilThermal.step`` (exponential Euler) with steps from 1 ms to 10 s against
    scipy's ``solve_ivp`` (Radau, rtol 1e-10) over 20 s at the paper's 0.43 A, and
    ``time_to_C`` (Gauss quadrature of dt = C dT / (P - loss)) against fine stepping.
+   The constant convection coefficient against Churchill-Chu h(T) (safe duty error, step cost).
 3. Deflection: ``coil.equilibrium`` with the force table against the 12-node filament model.
 
 Writes benchmarks/results/coil.md and coil.csv.
@@ -85,6 +86,12 @@ def thermal_rows(d):
     rows.append({"part": "thermal", "case": "seconds to 55 C at 3 V", "method": "time_to_C (64-node quadrature)",
                  "value": f"{t_q:.4f} s", "rel_err": abs(t_q / t_step - 1),
                  "us_per_call": best_time_s(lambda: th.time_to_C(th.limit_C, 3.0), repeat=3) * 1e6})
+    for conv in ("constant", "churchill_chu"):
+        tc = T.CoilThermal(d, convection=conv)
+        rows.append({"part": "thermal", "case": "3 V: s to 55 C / safe duty", "method": f"convection {conv}",
+                     "value": f"{tc.time_to_C(tc.limit_C, 3.0):.3f} s / {tc.safe_duty(3.0) * 100:.2f} %",
+                     "rel_err": abs(tc.safe_duty(3.0) / T.CoilThermal(d, convection="churchill_chu").safe_duty(3.0) - 1),
+                     "us_per_call": best_time_s(lambda tc=tc: tc.step(40.0, 0.43, 0.01), repeat=3, number=200) * 1e6})
     return rows, ref
 
 

@@ -119,3 +119,20 @@ def test_property_safe_duty_within_0_1(h, ambient):
     d = default_design(f"thermal.convection_coefficient={h}", f"thermal.ambient={ambient}")
     s = T.safe_duty(d, 3.0)
     assert 0.0 <= s <= 1.0
+
+
+def test_churchill_chu_convection():
+    h = T.churchill_chu_h(4.0, np.array([25.0, 55.0, 155.0]), 25.0)
+    assert np.all(np.isfinite(h)) and np.all(np.diff(h) > 0)
+    # no temperature difference: the conduction limit Nu = 0.6^2
+    k_air = 0.0241 * ((25.0 + T.KELVIN) / T.KELVIN) ** 0.81
+    assert h[0] == pytest.approx(0.36 * k_air / 4e-3)
+    assert 8 < h[1] < 20  # textbook range for a few-mm cylinder at tens of kelvin
+    cc = T.CoilThermal(D, convection="churchill_chu")
+    # the design's constant coefficient is Churchill-Chu at the first limit: same safe duty
+    assert abs(cc.safe_duty(3.0) / TH.safe_duty(3.0) - 1) < 0.02
+    assert abs(cc.time_to_C(cc.limit_C, 3.0) / TH.time_to_C(TH.limit_C, 3.0) - 1) < 0.02
+    t1 = cc.step(25.0, 0.43, 5.0)
+    assert TH.ambient_C < t1 < 200
+    with pytest.raises(ValueError, match="convection"):
+        T.CoilThermal(D, convection="forced")

@@ -30,6 +30,26 @@ from whisker import coil as _coil
 
 SIGMA = 5.670374419e-8  # W/(m^2 K^4), Stefan-Boltzmann
 KELVIN = 273.15
+CONVECTION_MODELS = ("constant", "churchill_chu")
+
+
+def churchill_chu_h(diameter_mm: float, surface_C, ambient_C: float):
+    """Natural-convection coefficient of a horizontal cylinder in air, W/(m^2 K), vectorised.
+
+    Churchill & Chu (1975): Nu = (0.60 + 0.387 Ra^(1/6) / (1 + (0.559/Pr)^(9/16))^(8/27))^2, with
+    air properties at the film temperature from power-law fits to Incropera's Table A.4 (k = 0.0241
+    (Tf/273.15)^0.81 W/(m K), nu = 1.33e-5 (Tf/273.15)^1.75 m^2/s, Pr = 0.71, beta = 1/Tf).
+    At zero temperature difference it returns the conduction limit (Ra = 0).
+    """
+    D = diameter_mm * 1e-3
+    Ts = np.asarray(surface_C, dtype=float)
+    tf = (Ts + ambient_C) / 2.0 + KELVIN
+    k = 0.0241 * (tf / KELVIN) ** 0.81
+    nu = 1.33e-5 * (tf / KELVIN) ** 1.75
+    pr = 0.71
+    ra = 9.81 * np.abs(Ts - ambient_C) / tf * D ** 3 / (nu * nu / pr)
+    nu_d = (0.60 + 0.387 * ra ** (1.0 / 6.0) / (1.0 + (0.559 / pr) ** (9.0 / 16.0)) ** (8.0 / 27.0)) ** 2
+    return nu_d * k / D
 
 
 @dataclass(frozen=True)
@@ -49,7 +69,7 @@ class Limits:
 class CoilThermal:
     """Lumped coil thermal model built from a design. Units: C, A, s, W, J/K."""
 
-    def __init__(self, design, source: str = "measured"):
+    def __init__(self, design, source: str = "measured", convection: str = "constant"):
         c, th = design.coil, design.thermal
         self.design = design
         self.source = source
@@ -71,6 +91,10 @@ class CoilThermal:
         ro, ri = c.outer_diameter / 2.0, c.inner_diameter / 2.0
         self.area_m2 = (2.0 * math.pi * ro * c.length + 2.0 * math.pi * (ro * ro - ri * ri)) * 1e-6
         self.h = float(th.convection_coefficient)
+        if convection not in CONVECTION_MODELS:
+            raise ValueError(f"convection must be one of {', '.join(CONVECTION_MODELS)} (got {convection!r})")
+        self.convection = convection
+        self.diameter_mm = float(c.outer_diameter)
         self.emissivity = float(th.emissivity)
         self.g_rod = float(th.rod_conductance)
 
@@ -83,12 +107,18 @@ class CoilThermal:
         T = np.asarray(T, dtype=float)
         ta = self.ambient_C
         rad = self.emissivity * SIGMA * self.area_m2 * ((T + KELVIN) ** 4 - (ta + KELVIN) ** 4)
-        return (self.h * self.area_m2 + self.g_rod) * (T - ta) + rad
+        return (self.h_at(T) * self.area_m2 + self.g_rod) * (T - ta) + rad
+
+    def h_at(self, T):
+        """Convection coefficient at coil temperature T, W/(m^2 K) (constant or Churchill-Chu)."""
+        if self.convection == "constant":
+            return self.h
+        return churchill_chu_h(self.diameter_mm, T, self.ambient_C)
 
     def conductance_W_per_K(self, T):
         """dLoss/dT at T, W/K."""
         T = np.asarray(T, dtype=float)
-        return self.h * self.area_m2 + self.g_rod + 4.0 * self.emissivity * SIGMA * self.area_m2 * (T + KELVIN) ** 3
+        return self.h_at(T) * self.area_m2 + self.g_rod + 4.0 * self.emissivity * SIGMA * self.area_m2 * (T + KELVIN) ** 3
 
     @property
     def time_constant_s(self) -> float:
@@ -114,11 +144,14 @@ class CoilThermal:
         C = self.heat_capacity_J_per_K
         # scalar arithmetic (no numpy): the simulator and the guard call this in their loops
         r20, alpha, ta = self.r20_ohm, _coil.ALPHA20_PER_K, self.ambient_C
+        cc = self.convection != "constant"
         g_lin = self.h * self.area_m2 + self.g_rod
         g_rad = self.emissivity * SIGMA * self.area_m2
         ta4 = (ta + KELVIN) ** 4
         i2 = I * I
         for _ in range(n):
+            if cc:  # h(T) frozen over the sub-step
+                g_lin = float(churchill_chu_h(self.diameter_mm, T, ta)) * self.area_m2 + self.g_rod
             tk = T + KELVIN
             p = i2 * r20 * (1.0 + alpha * (T - 20.0))
             a = (p - g_lin * (T - ta) - g_rad * (tk ** 4 - ta4)) / C          # dT/dt at T

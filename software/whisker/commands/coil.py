@@ -188,14 +188,16 @@ def fit_stiffness_cmd(design, points, amps):
 @click.option("--duty", type=click.FloatRange(0, 1), default=1.0, show_default=True, help="PWM duty.")
 @click.option("--seconds", type=float, default=None, help="Duration (default: 4 thermal time constants).")
 @click.option("--step", type=float, default=1.0, show_default=True, help="Print interval, s.")
+@click.option("--convection", type=click.Choice(["constant", "churchill_chu"]), default="constant",
+              show_default=True, help="Constant thermal.convection_coefficient, or Churchill-Chu h(T).")
 @_guard
-def thermal(design, volts, duty, seconds, step):
+def thermal(design, volts, duty, seconds, step, convection):
     """Coil temperature against time at a voltage and duty; time to each limit; safe duty."""
-    from whisker.thermal import CoilThermal, summary
+    from whisker.thermal import CoilThermal
 
     v = design.actuation.voltage if volts is None else volts
-    th = CoilThermal(design)
-    s = summary(design, v)
+    th = CoilThermal(design, convection=convection)
+    s = {"limit": th.limit_name, "limit_C": th.limit_C, "safe_duty": th.safe_duty(v)}
     t_end = seconds or 4.0 * th.time_constant_s
     click.echo(f"{v:g} V, duty {duty:g}: steady state {th.steady_state_C(v, duty):.0f} C; first limit "
                f"{s['limit']} {s['limit_C']:g} C after {th.time_to_C(th.limit_C, v, duty):.3g} s; "
