@@ -197,9 +197,11 @@ class CoilThermal:
         return t, T
 
     def time_to_C(self, target_C: float, volts: float, duty: float = 1.0) -> float:
-        """Seconds at constant voltage from ambient until the coil reaches target_C (math.inf if never)."""
-        from scipy.optimize import brentq
+        """Seconds at constant voltage from ambient until the coil reaches target_C (math.inf if never).
 
+        t = C * integral of dT / (P(T) - loss(T)) from ambient to target_C, 64-node Gauss-Legendre
+        (the integrand is smooth while the target lies below the steady state).
+        """
         if target_C <= self.ambient_C:
             return 0.0
         if self.steady_state_C(volts, duty) <= target_C:
@@ -211,7 +213,6 @@ class CoilThermal:
         x, w = np.polynomial.legendre.leggauss(64)
         T = self.ambient_C + (target_C - self.ambient_C) * (x + 1.0) / 2.0
         r = np.array([rate(Ti) for Ti in T])
-        del brentq
         return float(self.heat_capacity_J_per_K * np.sum(w / r) * (target_C - self.ambient_C) / 2.0)
 
     def safe_duty(self, volts: float, margin_C: float = 0.0) -> float:
