@@ -136,3 +136,14 @@ def test_churchill_chu_convection():
     assert TH.ambient_C < t1 < 200
     with pytest.raises(ValueError, match="convection"):
         T.CoilThermal(D, convection="forced")
+
+
+def test_time_to_limit_just_above_safe_duty_matches_stepping():
+    # steady state only just above the limit: the integrand nearly diverges at the top end
+    duty = TH.safe_duty(3.0) * 1.1
+    t_q = TH.time_to_C(TH.limit_C, 3.0, duty)
+    t, temp = 0.0, TH.ambient_C
+    while temp < TH.limit_C:
+        temp = TH.step_voltage(temp, 3.0, 0.05, duty)
+        t += 0.05
+    assert math.isfinite(t_q) and abs(t - t_q) < 0.01 * t_q + 0.05

@@ -199,21 +199,21 @@ class CoilThermal:
     def time_to_C(self, target_C: float, volts: float, duty: float = 1.0) -> float:
         """Seconds at constant voltage from ambient until the coil reaches target_C (math.inf if never).
 
-        t = C * integral of dT / (P(T) - loss(T)) from ambient to target_C, 64-node Gauss-Legendre
-        (the integrand is smooth while the target lies below the steady state).
+        t = C * integral of dT / (P(T) - loss(T)) from ambient to target_C (adaptive quadrature,
+        scipy ``quad``; the integrand grows without bound only as the target nears the steady state).
         """
+        from scipy.integrate import quad
+
         if target_C <= self.ambient_C:
             return 0.0
         if self.steady_state_C(volts, duty) <= target_C:
             return math.inf
-        # integrate dt = C dT / (P - loss) over T: smooth and exact for the lumped model
-        def rate(T):
-            return duty * volts * volts / float(self.resistance(T)) - float(self.loss_W(T))
 
-        x, w = np.polynomial.legendre.leggauss(64)
-        T = self.ambient_C + (target_C - self.ambient_C) * (x + 1.0) / 2.0
-        r = np.array([rate(Ti) for Ti in T])
-        return float(self.heat_capacity_J_per_K * np.sum(w / r) * (target_C - self.ambient_C) / 2.0)
+        def inv_rate(T):
+            return 1.0 / (duty * volts * volts / float(self.resistance(T)) - float(self.loss_W(T)))
+
+        val, _ = quad(inv_rate, self.ambient_C, target_C, epsrel=1e-10, limit=200)
+        return float(self.heat_capacity_J_per_K * val)
 
     def safe_duty(self, volts: float, margin_C: float = 0.0) -> float:
         """Highest PWM duty (0..1) whose steady temperature stays at the lowest limit minus margin_C."""
