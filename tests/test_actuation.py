@@ -310,3 +310,32 @@ def test_six_whisker_design():
         assert pin_values(be, be.channels) == expected(np.where(configuration(6, 3, 1), 0.4, 0.0))
         with pytest.raises(ValueError, match="divides"):
             act.retract(which=4)
+
+
+def test_threaded_runner_keeps_phase_timing(design):
+    """Ticked only by its own thread (the caller never ticks), the phases change on time."""
+    import time
+
+    from whisker.actuation import ThreadedSequenceRunner
+
+    thermal, current = coil_model(design)
+    guard = ThermalGuard(design, thermal=thermal, current_fn=current)
+    be = mock_backend(design)
+    log = []
+    act = Actuator(design, be, guard=guard, current_fn=current, watchdog=False,
+                   log=lambda t, phase, req, applied: log.append((t, phase)))
+    steps = grasp_sequence(8, configuration(8, "opposite"), 0.5, retract_s=0.2, hold_s=0.2, release_s=0.2)
+    with act:
+        r = ThreadedSequenceRunner(act, steps, period_s=0.005)
+        r.start(time.monotonic())
+        deadline = time.monotonic() + 10
+        while not r.done and time.monotonic() < deadline:
+            time.sleep(0.02)
+        r.stop()
+        assert r.done
+    t0 = r.t0
+    when = {p: t - t0 for t, p in log if p in ("retract", "hold", "release")}
+    assert when["retract"] == pytest.approx(0.0, abs=0.05)
+    assert when["hold"] == pytest.approx(0.2, abs=0.1) and when["release"] == pytest.approx(0.4, abs=0.1)
+    assert when["hold"] < when["release"]
+    assert all(p.state == 0 for p in be.factory.pins.values())

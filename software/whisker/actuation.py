@@ -51,6 +51,7 @@ from whisker.guard import RatingError, ThermalGuard, check_driver, check_levels,
 __all__ = [
     "Backend", "GpioBackend", "mock_backend", "open_backend", "Actuator", "Step", "RatingError",
     "configuration", "CONFIG_NAMES", "grasp_sequence", "run_sequence", "SequenceRunner",
+    "ThreadedSequenceRunner",
     "deenergise_on_signals",
 ]
 
@@ -513,6 +514,7 @@ class SequenceRunner:
         self.t0: Optional[float] = None
         self.index = -1
         self.done = False
+        self._lock = threading.RLock()
 
     def start(self, now: float) -> None:
         self.t0 = float(now)
@@ -520,9 +522,12 @@ class SequenceRunner:
 
     def tick(self, now: float) -> str:
         """Apply whatever step is due at `now`; returns the current phase."""
+        with self._lock:
+            return self._tick(now)
+
+    def _tick(self, now: float) -> str:
         if self.t0 is None:
-            self.start(now)
-            return self.steps[max(self.index, 0)].phase
+            self.t0 = float(now)
         t = float(now) - self.t0
         due = int(np.searchsorted(self.starts, t, side="right")) - 1
         due = min(max(due, 0), len(self.steps) - 1)
@@ -534,6 +539,45 @@ class SequenceRunner:
             self.actuator.tick()
         self.done = t >= self.total_s
         return self.steps[self.index].phase
+
+
+class ThreadedSequenceRunner(SequenceRunner):
+    """A :class:`SequenceRunner` that also ticks itself every `period_s` in a background thread
+    once started, so phase changes keep their timing when the caller ticks rarely (e.g. once per
+    camera frame). :meth:`stop` ends the thread; the caller still owns switching off."""
+
+    def __init__(self, actuator: Actuator, steps: Sequence[Step], *, period_s: float = 0.01,
+                 clock: Callable[[], float] = time.monotonic):
+        super().__init__(actuator, steps)
+        self.period_s = float(period_s)
+        self.clock = clock
+        self.error: Optional[BaseException] = None
+        self._stop_event = threading.Event()
+        self._thread: Optional[threading.Thread] = None
+
+    def start(self, now: float) -> None:
+        super().start(now)
+        self._thread = threading.Thread(target=self._run, name="whisker-sequence", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop_event.wait(self.period_s) and not self.done:
+            try:
+                self.tick(self.clock())
+            except BaseException as err:  # noqa: BLE001 - reported to the caller's thread
+                self.error = err
+                self.actuator.off()
+                return
+
+    def tick(self, now: float) -> str:
+        if self.error is not None:
+            raise RuntimeError(f"sequence thread failed: {self.error}") from self.error
+        return super().tick(now)
+
+    def stop(self) -> None:
+        self._stop_event.set()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=1.0)
 
 
 def run_sequence(actuator: Actuator, steps: Sequence[Step], *, period_s: float = 0.02,
@@ -573,9 +617,10 @@ def default_state_file(backend_name: str):
 
 
 def open_actuator(design, backend_name: str, *, policy: str = "derate", state_file=None,
-                  log: Optional[Callable] = None, watchdog: bool = True) -> Actuator:
-    """An Actuator on the named backend with the design's coil model as thermal guard."""
-    backend = open_backend(backend_name, design)
+                  log: Optional[Callable] = None, watchdog: bool = True, backend_object=None) -> Actuator:
+    """An Actuator on the named backend (or on `backend_object`, already open) with the design's
+    coil model as thermal guard."""
+    backend = backend_object if backend_object is not None else open_backend(backend_name, design)
     try:
         guard = ThermalGuard(design, policy=policy,
                              state_file=state_file if state_file is not None else default_state_file(backend_name))

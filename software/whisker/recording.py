@@ -328,7 +328,7 @@ def load_session(folder) -> Session:
 
     tr = read_table(folder / "tracks.csv")
     tracks = {}
-    if tr:
+    if tr and tr.get("frame"):
         tf = np.array([int(v) for v in tr["frame"]], dtype=int)
         tw = np.array([int(v) for v in tr["whisker"]], dtype=int)
         pos = {f: i for i, f in enumerate(idx)}
@@ -399,3 +399,51 @@ def record_frames(recorder: Recorder, frames, *, tracker=None, model: str = "pap
         if seq_end is not None and after_sequence_s is not None and t - seq_end >= after_sequence_s:
             break
     return count
+
+
+class SimCamera:
+    """Frames of the simulated sensor, in real time: at `fps`, the simulator backend's whisker tilts
+    (``backend.angles_deg()``, + = retraction) are rendered by ``whisker.render`` into a camera
+    frame (coil blocks, red markers, wires, noise). With ``whisker record --source sim --backend
+    sim`` the actuation moves the simulated whiskers and the tracker sees them move, end to end,
+    without hardware. Iterates ``whisker.camera.Frame``; `count` None = until closed.
+    """
+
+    name = "sim"
+    truncated = False
+
+    def __init__(self, design, backend, *, fps: float = 15.0, count: Optional[int] = None, seed: int = 0,
+                 noise_sigma: float = 4.0, blur_px: float = 0.7, clock=time.monotonic, sleep=time.sleep):
+        if not hasattr(backend, "angles_deg"):
+            raise RecordingError("the sim camera needs the simulator backend (--backend sim)")
+        if not (fps > 0):
+            raise RecordingError(f"sim camera fps must be > 0, got {fps}")
+        self.design, self.backend, self.fps, self.count, self.seed = design, backend, float(fps), count, seed
+        self.render_kw = {"noise_sigma": noise_sigma, "blur_px": blur_px}
+        self.clock, self.sleep = clock, sleep
+        self._closed = False
+
+    def __iter__(self):
+        from whisker import render
+        from whisker.camera import Frame
+
+        t0 = self.clock()
+        i = 0
+        while not self._closed and (self.count is None or i < self.count):
+            wait = t0 + i / self.fps - self.clock()
+            if wait > 0:
+                self.sleep(wait)
+            tilt = np.asarray(self.backend.angles_deg(), dtype=float)
+            img = render.render_frame(self.design, render.scene_markers(self.design, tilt), seed=self.seed + i,
+                                      **self.render_kw)
+            yield Frame(i, self.clock() - t0, img)
+            i += 1
+
+    def close(self) -> None:
+        self._closed = True
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

@@ -14,7 +14,10 @@ from whisker.commands.grasp import build_sequence, sequence_options
 @click.command()
 @design_options
 @click.option("--source", required=True, metavar="SOURCE",
-              help="picamera, a camera index (0, 1 ...), a video file, an image folder, or synthetic[:N].")
+              help="picamera, a camera index (0, 1 ...), a video file, an image folder, synthetic[:N], or sim "
+                   "(frames rendered from the simulator's whiskers, with --backend sim).")
+@click.option("--fps", type=click.FloatRange(0.1, 120), default=15.0, show_default=True,
+              help="Frame rate of --source sim.")
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
               help="Session folder to create (must not exist or be empty).")
 @click.option("--frames", "max_frames", type=click.IntRange(1, None), default=None,
@@ -41,7 +44,7 @@ from whisker.commands.grasp import build_sequence, sequence_options
               help="png: lossless (exact replay); jpg: smaller and faster to write.")
 @click.option("--trial", default=None, help="Free text stored in metadata.json (object, trial number ...).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or summary.")
-def cli(design, source, out_dir, max_frames, duration, method, model, rest_frames, no_track, backend, which, start,
+def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_frames, no_track, backend, which, start,
         level, volts, policy, release_level, hold_level, release_s, hold_s, retract_s, tail_s, image_format,
         trial, quiet):
     """Record a session: every frame as an image, the tracks, the actuation commands and the coils'
@@ -61,15 +64,15 @@ def cli(design, source, out_dir, max_frames, duration, method, model, rest_frame
 
     from tqdm import tqdm
 
-    from whisker.actuation import SequenceRunner, deenergise_on_signals, open_actuator
+    from whisker.actuation import ThreadedSequenceRunner, deenergise_on_signals, open_actuator
     from whisker.camera import SourceError, open_source
     from whisker.commands.actuate import resolve_level
     from whisker.guard import RatingError
-    from whisker.recording import Recorder, RecordingError, record_frames
+    from whisker.recording import Recorder, RecordingError, SimCamera, record_frames
 
     if which is not None and backend == "none":
         fail("record: --grasp needs an actuation --backend (mock, gpio or sim)")
-    if max_frames is None and duration is None and which is None and source in ("picamera",) + tuple("0123456789"):
+    if max_frames is None and duration is None and which is None and source in ("picamera", "sim") + tuple("0123456789"):
         fail("record: a live camera needs --frames, --duration or --grasp to know when to stop")
     tracker = None
     if not no_track:
@@ -79,13 +82,22 @@ def cli(design, source, out_dir, max_frames, duration, method, model, rest_frame
             tracker = Tracker(design, method)
         except ValueError as err:
             fail(f"record: {err}")
-    try:
-        src = open_source(source, design)
-    except SourceError as err:
-        fail(f"record: {err}")
+    sim_backend = None
+    if source == "sim":
+        if backend not in ("sim", "none"):
+            fail("record: --source sim films the simulator: use --backend sim (or none)")
+        from whisker.actuation import open_backend
+
+        sim_backend = open_backend("sim", design)
+        src = SimCamera(design, sim_backend, fps=fps)
+    else:
+        try:
+            src = open_source(source, design)
+        except SourceError as err:
+            fail(f"record: {err}")
     meta = {"source": source, "tracking": None if no_track else {"method": method, "model": model},
             "trial": trial}
-    act = None
+    act = runner = None
     n_frames = 0
     try:
         with deenergise_on_signals():
@@ -95,7 +107,8 @@ def cli(design, source, out_dir, max_frames, duration, method, model, rest_frame
                 fail(f"record: {err}")
             with rec:
                 if which is not None:
-                    act = open_actuator(design, backend, policy=policy, log=rec.log_actuation)
+                    act = open_actuator(design, backend, policy=policy, log=rec.log_actuation,
+                                        backend_object=sim_backend)
                     lvl = resolve_level(design, level, volts)
                     lvl = act.default_level() if lvl is None else lvl
                     steps = build_sequence(design, which, start, lvl, hold_level, retract_s, hold_s, release_s,
@@ -115,19 +128,23 @@ def cli(design, source, out_dir, max_frames, duration, method, model, rest_frame
                 bar = tqdm(desc="record", unit="frame", disable=quiet, file=sys.stderr, total=max_frames)
                 n_frames = record_frames(rec, rest, tracker=tracker, model=model, actuator=act,
                                          on_frame=lambda c, t: bar.update())
-                runner = SequenceRunner(act, steps) if act is not None else None
+                runner = ThreadedSequenceRunner(act, steps) if act is not None else None
                 n_frames += record_frames(
                     rec, frames, tracker=tracker, model=model, runner=runner, actuator=act,
                     max_frames=None if max_frames is None else max(0, max_frames - n_frames) or None,
                     duration_s=duration, after_sequence_s=tail_s if runner is not None else None,
                     on_frame=lambda c, t: bar.update()) if (max_frames is None or n_frames < max_frames) else 0
                 bar.close()
+                if runner is not None:
+                    runner.stop()
                 if act is not None:
                     act.close()
                     rec.meta["guard"] = act.guard.state()
     except (RatingError, ValueError, RuntimeError) as err:
         fail(f"record: {err}")
     finally:
+        if runner is not None:
+            runner.stop()
         if act is not None:
             act.close()
         src.close()
