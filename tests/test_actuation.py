@@ -339,3 +339,17 @@ def test_threaded_runner_keeps_phase_timing(design):
     assert when["hold"] == pytest.approx(0.2, abs=0.1) and when["release"] == pytest.approx(0.4, abs=0.1)
     assert when["hold"] < when["release"]
     assert all(p.state == 0 for p in be.factory.pins.values())
+
+
+def test_gpio_backend_without_pins_fails_clearly(design):
+    from pathlib import Path
+
+    from whisker.actuation import open_backend
+
+    model = Path("/proc/device-tree/model")
+    if model.exists() and "Raspberry" in model.read_text(errors="ignore"):
+        pytest.skip("running on a Raspberry Pi: the real pins exist")
+    with pytest.raises(RuntimeError, match="no GPIO pins on this machine.*--backend mock"):
+        open_backend("gpio", design)
+    with pytest.raises(ValueError, match="backend must be one of"):
+        open_backend("serial", design)

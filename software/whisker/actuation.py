@@ -169,7 +169,20 @@ def open_backend(name: str, design):
     if name == "mock":
         return mock_backend(design)
     if name == "gpio":
-        return GpioBackend(design)
+        from gpiozero.exc import BadPinFactory, GPIOZeroError
+
+        import warnings
+
+        try:
+            with warnings.catch_warnings():  # gpiozero warns once per pin library it cannot load
+                warnings.simplefilter("ignore")
+                return GpioBackend(design)
+        except BadPinFactory as err:
+            raise RuntimeError(
+                f"no GPIO pins on this machine (gpiozero: {err}); on a Raspberry Pi install lgpio "
+                "(sudo apt install python3-lgpio), elsewhere use --backend mock or sim") from None
+        except GPIOZeroError as err:
+            raise RuntimeError(f"gpiozero could not open the coil pins: {err}") from None
     if name == "sim":
         try:
             from whisker.sim import actuation_backend
