@@ -232,6 +232,9 @@ def plan(scene: Scene, design) -> Plan:
     reachable = objects_in_reach(scene, design)
     if fid.contact == "on":
         contact, why = True, "fidelity.contact = 'on' (full model)"
+    elif ex in ("grasp", "displacement", "classification") and scene.objects:
+        contact, why = True, (f"the {ex} experiment brings the tips to the objects: MuJoCo capsule whiskers "
+                              f"(tip friction {mech.tip_friction:g}), bodies, friction, gravity")
     elif reachable:
         contact, why = True, (f"object(s) {', '.join(reachable)} within reach of the tips: MuJoCo capsule "
                               f"whiskers (tip friction {mech.tip_friction:g}), bodies, friction, gravity")

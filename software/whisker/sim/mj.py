@@ -95,9 +95,9 @@ def build_mjcf(scene, design, body) -> str:
         out.append(f'<body name="w{i}" pos="{_f(p)}">')
         out.append(f'<inertial pos="0 0 {body.com_m:.9g}" mass="{body.mass_kg:.9g}" '
                    f'diaginertia="{J_com:.9g} {J_com:.9g} {J_ax:.9g}"/>')
-        out.append(f'<joint name="r{i}" type="hinge" axis="{_f([cy, -cx, 0])}" stiffness="{body.stiffness:.9g}" '
+        out.append(f'<joint name="r{i}" type="hinge" axis="{_f([cy, -cx, 0])}" stiffness="{body.stiffness:.9g}" solreflimit="{2 * scene.scene.timestep:.9g} 1" '
                    f'damping="{body.damping:.9g}" range="{-stop:.9g} {stop:.9g}" limited="true"/>')
-        out.append(f'<joint name="t{i}" type="hinge" axis="{_f([-cx, -cy, 0])}" stiffness="{body.stiffness:.9g}" '
+        out.append(f'<joint name="t{i}" type="hinge" axis="{_f([-cx, -cy, 0])}" stiffness="{body.stiffness:.9g}" solreflimit="{2 * scene.scene.timestep:.9g} 1" '
                    f'damping="{body.damping:.9g}" range="{-stop:.9g} {stop:.9g}" limited="true"/>')
         out.append(f'<geom name="rod{i}" type="capsule" fromto="0 0 {-body.rod_bottom_m:.9g} 0 0 {body.rod_top_m - coat:.9g}" '
                    f'size="{r:.9g}" friction="{c.rod_friction:g} 0.005 0.0001" contype="2" conaffinity="0" mass="0"/>')
@@ -131,8 +131,9 @@ def _object_xml(scene, o) -> str:
     else:
         raise ValueError(f"object {o.name!r}: mesh objects are not supported by this build yet; "
                          "approximate it with a primitive")
+    joint = "" if o.fixed else "<freejoint/>"
     return (f'<body name="obj:{o.name}" pos="{o.pos[0] * MM:.9g} {o.pos[1] * MM:.9g} {z + 1e-5:.9g}" quat="{_f(q)}">'
-            f'<freejoint/>{g}</body>')
+            f'{joint}{g}</body>')
 
 
 class MjScene:
@@ -259,12 +260,17 @@ def run_mujoco(scene, design, plan, body, progress, record_hz):
         sim.t = b * dt
     theta = np.array(rec["th"])
     omega = np.array(rec["om"])
+    # MuJoCo's joint limit is a soft constraint: a rigid path pushing a whisker against a held object
+    # can drive it past the stop. The mount's stop is hard: report the excess and clamp the reading.
+    over = float(np.degrees(max(0.0, np.abs(theta).max() - body.stop_rad))) if theta.size else 0.0
+    theta = np.clip(theta, -body.stop_rad, body.stop_rad)
     e_wh = energy_J(body, theta, omega, scene.sensor.facing).sum(axis=-1)
     res = Result(plan=plan, t_s=np.array(rec["t"]), theta_rad=theta, tips_mm=tip_positions_mm(design, theta),
                  markers_mm=marker_positions_mm(design, theta), energy_J=e_wh, levels=np.array(rec["lv"]),
                  objects_mm=np.array(rec["obj"]), object_names=[o.name for o in scene.objects],
                  sensor_pose=poses_table(scene, np.array(rec["t"])), contacts=np.array(rec["nc"]),
-                 steps=steps, info={"mujoco_energy_J": rec["E"][-1], "mujoco_energy_max_J": max(rec["E"])})
+                 steps=steps, info={"mujoco_energy_J": rec["E"][-1], "mujoco_energy_max_J": max(rec["E"]),
+                       "stop_violation_max_deg": over})
     if sim.drive.heating:
         res.temperature_C = np.array(rec["T"])
     return res

@@ -231,9 +231,9 @@ def plot_displacement(d: dict, path) -> None:
 def classification_sample(scene: Scene, design, obj, rotation_deg: float, rng, body=None) -> np.ndarray:
     """One sample: for each approach direction and distance, the N markers' (dx, dy) in px.
 
-    The sensor (whiskers down, tips ``tip_height`` above the table) starts 60 mm from the object's
-    centre on the approach line, moves horizontally to each recording distance (far first), and the
-    markers' pixel displacements are read there. Layout: directions x distances x whiskers x (dx, dy)
+    The sensor (whiskers down, tips ``tip_height`` above the table) starts with its front tip 60 mm
+    from the object's centre on the approach line, moves horizontally until the front tip is at each
+    recording distance (far first), settles 0.15 s, and the markers' pixel displacements are read. Layout: directions x distances x whiskers x (dx, dy)
     = 4 x 2 x 8 x 2 = 128 values for the paper's sensor, rounded to integers like the authors' data.
     """
     from whisker.sim.effects import plan
@@ -249,15 +249,16 @@ def classification_sample(scene: Scene, design, obj, rotation_deg: float, rng, b
         ux, uy = math.cos(ang), math.sin(ang)
         dx, dy = rng.normal(0.0, e.placement_noise, 2) if e.placement_noise > 0 else (0.0, 0.0)
         ox, oy = obj.pos[0] + dx, obj.pos[1] + dy
-        path = [[0.0, ox - start * ux, oy - start * uy, e.tip_height, rotation_deg]]
+        ring = design.whiskers.ring_radius
+        path = [[0.0, ox - (start + ring) * ux, oy - (start + ring) * uy, e.tip_height, rotation_deg]]
         times = []
         t = 0.0
         prev = start
         for dist in e.distances:
             t += abs(prev - dist) / speed
-            path.append([t, ox - dist * ux, oy - dist * uy, e.tip_height, rotation_deg])
+            path.append([t, ox - (dist + ring) * ux, oy - (dist + ring) * uy, e.tip_height, rotation_deg])
             t += 0.15                                    # settle, then record
-            path.append([t, ox - dist * ux, oy - dist * uy, e.tip_height, rotation_deg])
+            path.append([t, ox - (dist + ring) * ux, oy - (dist + ring) * uy, e.tip_height, rotation_deg])
             times.append(t)
             prev = dist
         o = obj.model_dump()

@@ -97,6 +97,7 @@ class SceneObject(_S):
     pos: list[float] = Field(default_factory=lambda: [0.0, 0.0], description="[x, y] mm on the table")
     yaw: float = Field(0.0, description="deg about the vertical")
     mesh: str = Field("", description="mesh file (STL/OBJ), relative to the scene file")
+    fixed: bool = Field(False, description="held in place (a static body) instead of free on the table")
 
     @model_validator(mode="after")
     def _check(self) -> "SceneObject":
@@ -218,7 +219,8 @@ class Experiment(_S):
     objects: list[str] = Field(default_factory=list, description="object names to use (default all)")
     trials: int = Field(5, ge=1, le=1000)
     distances: list[float] = Field(default_factory=lambda: [30.0, 10.0],
-                                   description="mm, classification: sensor axis to object centre")
+                                   description="mm, classification: object centre to the nearest resting "
+                                               "whisker tip (the front of the ring)")
     directions: int = Field(4, ge=1, le=16, description="classification: approach directions")
     rotations: list[float] = Field(default_factory=lambda: [0.0, 60.0, 120.0, 180.0, 240.0, 300.0],
                                    description="deg, classification: sensor rotations")

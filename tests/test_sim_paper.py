@@ -1,0 +1,62 @@
+"""The paper's experiments in simulation, on short settings (scenes 1, 3, 4; the grasp table is in
+test_sim_contact.py). The full runs: `make sim-paper` (docs/sim.md)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import _sim_doubles
+from conftest import ROOT, peer_data
+
+_sim_doubles.install()
+pytest.importorskip("mujoco", reason="MuJoCo (pip install mujoco) is needed for the contact experiments")
+
+from whisker.design import default_design  # noqa: E402
+from whisker.sim import load_scene, plan  # noqa: E402
+from whisker.sim import experiments, paper  # noqa: E402
+
+SCENES = ROOT / "software" / "whisker" / "sim" / "scenes"
+D = default_design()
+
+
+def test_angle_vs_voltage_fig4_shape():
+    s = load_scene(SCENES / "angle_vs_voltage.toml")
+    assert plan(s, D).solver == "static" and not plan(s, D).built("heating")
+    r = experiments.angle_vs_voltage(s, D)
+    th, v = r["theta_deg"], r["volts"]
+    assert th[v == 0][0] == 0.0
+    assert np.all(np.diff(th) >= -1e-9)                       # monotone: more volts, more tilt
+    assert np.all(th[v > 0] > 0) and np.all(th[v < 0] < 0)    # + retracts, - extends
+    assert np.all(np.abs(th) <= D.whiskers.max_deflection_deg + 1e-9)
+
+
+def test_classification_sample_layout_128_ints():
+    s = load_scene(SCENES / "classification.toml")
+    s = s.with_(experiment={**s.experiment.model_dump(), "trials": 1, "rotations": [0.0], "objects": ["lightbulb"]})
+    ds = paper.classification_dataset(s, D)
+    assert list(ds) == ["lightbulb"]
+    rows = ds["lightbulb"]
+    assert rows.shape == (1, 4 * 2 * D.whiskers.count * 2) == (1, 128)
+    assert rows.dtype.kind == "i" and np.abs(rows).max() > 2     # the whiskers were touched
+    text = paper.dataset_csv(rows)
+    assert text.count("\n") == 1 and len(text.strip().split(",")) == 128
+
+
+@pytest.mark.skipif(peer_data() is None, reason="WHISKER_PEER_DATA not set: the authors' data is not available")
+def test_simulated_dataset_has_the_authors_layout():
+    real = np.loadtxt(peer_data() / "objCls" / "cherry.csv", delimiter=",")
+    assert real.shape[1] == 128 == 4 * 2 * D.whiskers.count * 2
+
+
+def test_displacement_mean_and_band_over_trials():
+    s = load_scene(SCENES / "displacement.toml")
+    s = s.with_(experiment={**s.experiment.model_dump(), "trials": 2, "objects": ["foam ball"]})
+    d = paper.displacement_runs(s, D)
+    r = d["objects"]["foam ball"]
+    assert r["disp_px"].shape[0] == 2 and r["mean"].shape == r["std"].shape
+    t = r["t_s"]
+    hold = (t > d["phases"]["lift"]) & (t < d["phases"]["release"])
+    after = t > d["phases"]["release"] + 0.3
+    assert r["mean"][hold].mean() > 2.0                          # retracted: markers moved (px)
+    assert r["mean"][after].mean() < r["mean"][hold].mean()      # released: back toward rest
