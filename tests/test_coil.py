@@ -31,6 +31,8 @@ def test_paper_coil_600_turns_do_not_fit_4x4mm():
     assert any("600 turns" in m for m in w.warnings)
     assert w.max_turns_at_fill < 600 and w.max_turns_orthocyclic < 600
     assert w.wound_outer_diameter_mm > D.coil.outer_diameter
+    # 7 ohm of 0.101 mm copper: ~3.25 m, ~0.23 g (DESIGN.md section 2)
+    assert 0.22 < w.copper_mass_from_resistance_g < 0.24 < w.copper_mass_g
 
 
 def test_paper_coil_seven_ohm_is_inside_the_hand_winding_range():

@@ -100,7 +100,8 @@ class Winding:
     resistance_ohm: float              # predicted by the geometry at 20 C
     measured_resistance_ohm: float     # the design's [coil] resistance
     turns_for_measured_resistance: int  # turns whose wire gives the measured resistance (filling from the bore)
-    copper_mass_g: float
+    copper_mass_g: float               # of the requested turns' wire
+    copper_mass_from_resistance_g: float  # of the wire the measured resistance implies (the thermal model's)
     enamel_mass_g: float
     inductance_wheeler_H: float
     inductance_numeric_H: float
@@ -167,6 +168,7 @@ def winding(design) -> Winding:
         wire_length_mm=length_mm, resistance_ohm=r20, measured_resistance_ohm=c.resistance,
         turns_for_measured_resistance=int(round(n_meas)),
         copper_mass_g=vol_cu * COPPER_DENSITY_G_CM3 / 1000.0,
+        copper_mass_from_resistance_g=target_len * a_cu * COPPER_DENSITY_G_CM3 / 1000.0,
         enamel_mass_g=vol_en * ENAMEL_DENSITY_G_CM3 / 1000.0,
         inductance_wheeler_H=l_w, inductance_numeric_H=l_n, time_constant_s=l_n / c.resistance,
         warnings=warnings)
