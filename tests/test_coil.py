@@ -192,3 +192,29 @@ def test_property_winding_consistent(wire, fill, turns):
     assert w.fits == (turns <= w.max_turns_at_fill)
     assert w.resistance_ohm == pytest.approx(C.ohm_per_m(wire) * w.wire_length_mm / 1000)
     assert w.layers * w.turns_per_layer >= turns
+
+
+@pytest.mark.parametrize("gap", [0.01, 0.05, 1.0, 5.4, 5.5, 8.0])
+def test_extreme_gaps_give_finite_answers(gap):
+    d = default_design(f"actuation.gap={gap}")
+    i_pull, th_pull = C.pull_in(d)
+    for i in (0.0, 0.05, 0.43, 2.0, -0.43):
+        eq = C.equilibrium(d, i)
+        assert math.isfinite(eq.theta_deg) and eq.gap_mm >= 0
+        assert eq.stable == (i <= i_pull)
+    if gap >= C.lever_mm(d):
+        assert i_pull == math.inf
+    else:
+        assert math.isfinite(i_pull) and i_pull > 0
+
+
+def test_report_json_finite_for_far_gap():
+    from whisker.coil_report import build_report, format_report
+    from whisker.files import atomic_write_json
+    import tempfile, os
+
+    rep = build_report(default_design("actuation.gap=8"))
+    assert rep["deflection"]["pull_in_current_A"] is None
+    assert "no pull-in" in format_report(rep)
+    with tempfile.TemporaryDirectory() as tmp:
+        atomic_write_json(os.path.join(tmp, "r.json"), rep)  # refuses NaN/inf

@@ -280,7 +280,8 @@ def gap_at_mm(design, theta_rad):
     lever*sin(theta), so the gap shrinks by that much (coil tilt and the small vertical offset
     lever*(1 - cos theta) are ignored in the force: Principle 3, < 1.5 % of the lever at 15 deg).
     """
-    return design.actuation.gap - lever_mm(design) * np.sin(theta_rad)
+    g = design.actuation.gap - lever_mm(design) * np.sin(theta_rad)
+    return np.where((g < 0) & (g > -1e-9), 0.0, g)  # rounding at contact (theta = asin(gap/lever))
 
 
 def torque_per_ampere_Nmm(design, theta_rad, model: str = "table"):
@@ -295,8 +296,8 @@ class Equilibrium:
     theta_deg: float                 # steady tilt (retraction positive); at snap-through: the contact tilt
     gap_mm: float
     stable: bool                     # a stable equilibrium exists (False = snap-through)
-    pull_in_current_A: float         # largest retracting current with a stable equilibrium
-    pull_in_theta_deg: float         # tilt just before pull-in
+    pull_in_current_A: float | None  # largest retracting current with a stable equilibrium (None: no pull-in,
+    pull_in_theta_deg: float | None  # the coil cannot reach the magnet); tilt just before pull-in
     exceeds_max_deflection: bool     # beyond whiskers.max_deflection_deg
     message: str
 
@@ -314,10 +315,13 @@ def pull_in(design, stiffness_Nmm_per_rad: float | None = None, model: str = "ta
 
     Equilibrium needs I = k_rot theta / tau(theta); the largest such current over the reachable tilts
     [0, contact] is the pull-in current. If the maximum is at contact there is no snap: the coil just
-    reaches the magnet at that current.
+    reaches the magnet at that current. Returns (math.inf, pi/2) when the gap is at least the lever:
+    the coil cannot reach the magnet, and every current has a stable tilt.
     """
     k_rot = design.mechanics.rotational_stiffness if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
     th_c = _theta_contact(design)
+    if design.actuation.gap >= lever_mm(design):
+        return math.inf, math.pi / 2.0
     th = np.linspace(0.0, th_c, 4001)[1:]
     g = k_rot * th / torque_per_ampere_Nmm(design, th, model=model)
     i = int(np.argmax(g))
@@ -369,8 +373,9 @@ def equilibrium(design, current_A: float, model: str = "table",
     exceeds = abs(th_deg) > max_dev
     if stable and exceeds:
         msg += f"; beyond whiskers.max_deflection_deg ({max_dev:g} deg)"
-    return Equilibrium(I, th_deg, float(gap_at_mm(design, th)), stable, i_pull, math.degrees(th_pull),
-                       exceeds, msg)
+    reach = math.isfinite(i_pull)
+    return Equilibrium(I, th_deg, float(gap_at_mm(design, th)), stable, i_pull if reach else None,
+                       math.degrees(th_pull) if reach else None, exceeds, msg)
 
 
 def deflection_deg(design, current_A, model: str = "table"):

@@ -56,9 +56,9 @@ def build_report(design, volts: float | None = None) -> dict:
     defl = {
         "rotational_stiffness_Nmm_per_rad": design.mechanics.rotational_stiffness,
         "equilibrium": eq.to_dict(),
-        "pull_in_current_A": i_pull,
-        "pull_in_volts": i_pull * r20,
-        "pull_in_theta_deg": math.degrees(th_pull),
+        "pull_in_current_A": i_pull if math.isfinite(i_pull) else None,
+        "pull_in_volts": i_pull * r20 if math.isfinite(i_pull) else None,
+        "pull_in_theta_deg": math.degrees(th_pull) if math.isfinite(i_pull) else None,
     }
     rep = {
         "design_digest": design.digest(),
@@ -118,8 +118,11 @@ def format_report(rep: dict) -> str:
         L.append(f"  steady tilt {eq['theta_deg']:.2f} deg, gap {eq['gap_mm']:.2f} mm ({eq['message']})")
     else:
         L.append(f"  NO STABLE EQUILIBRIUM: {eq['message']}")
-    L.append(f"  pull-in (snap-through) above {d['pull_in_current_A']:.3f} A = {d['pull_in_volts']:.2f} V, "
-             f"at {d['pull_in_theta_deg']:.1f} deg")
+    if d["pull_in_current_A"] is None:
+        L.append("  no pull-in: the gap is at least the lever, the coil cannot reach the magnet")
+    else:
+        L.append(f"  pull-in (snap-through) above {d['pull_in_current_A']:.3f} A = {d['pull_in_volts']:.2f} V, "
+                 f"at {d['pull_in_theta_deg']:.1f} deg")
     L.append(f"THERMAL at {t['volts']:g} V continuous (ambient {t['ambient_C']:g} C)")
     L.append(f"  heat capacity {t['heat_capacity_J_per_K'] * 1e3:.0f} mJ/K, cooling {t['conductance_W_per_K'] * 1e3:.2f} mW/K, "
              f"time constant {t['time_constant_s']:.1f} s, {t['heating_rate_cold_K_per_s']:.1f} K/s at first")

@@ -151,8 +151,9 @@ def deflection(design, volts):
 
     vs = volts or tuple(np.round(np.linspace(0.5, design.actuation.voltage, 6), 3))
     i_pull, th_pull = pull_in(design)
-    click.echo(f"stiffness {design.mechanics.rotational_stiffness:g} N*mm/rad, gap {design.actuation.gap:g} mm; "
-               f"pull-in above {i_pull:.3f} A = {i_pull * resistance_ohm(design):.2f} V (at {math.degrees(th_pull):.1f} deg)")
+    pull = (f"pull-in above {i_pull:.3f} A = {i_pull * resistance_ohm(design):.2f} V (at {math.degrees(th_pull):.1f} deg)"
+            if math.isfinite(i_pull) else "no pull-in (the coil cannot reach the magnet)")
+    click.echo(f"stiffness {design.mechanics.rotational_stiffness:g} N*mm/rad, gap {design.actuation.gap:g} mm; {pull}")
     click.echo("volts  current_A  tilt_deg  gap_mm  state")
     for v in vs:
         eq = equilibrium(design, current_A(design, float(v)))
