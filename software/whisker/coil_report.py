@@ -18,8 +18,8 @@ REPORT_GAPS_MM = (0.2, 0.5, 1.0, 2.0, 2.5, 5.0, 10.0)
 def build_report(design, volts: float | None = None) -> dict:
     """Everything `whisker coil report` prints, for the coil voltage `volts` (default [actuation])."""
     v = float(volts if volts is not None else design.actuation.voltage)
-    if not (math.isfinite(v) and v >= 0):
-        raise coil.CoilError(f"volts must be a finite number >= 0 (got {volts!r})")
+    if not (math.isfinite(v) and v > 0):
+        raise coil.CoilError(f"volts must be a positive finite number (got {volts!r}); at 0 V nothing moves or heats")
     w = coil.winding(design)
     i20 = coil.current_A(design, v, 20.0)
     th = thermal.CoilThermal(design)
