@@ -1,11 +1,11 @@
 # Actuation, thermal guard and recording (issue 7). See docs/actuation.md.
 #   make grasp-dry                  the paper's grasp on gpiozero mock pins (no hardware), 4 whiskers
 #   make fig8-sim TRIALS=5          5 grasp recordings of the simulated sensor -> docs/images/fig8_sim.png
-#   make bench-guard                thermal-guard integration step: error vs a fine reference, cost
+#   make bench-actuation                guard estimate vs an ODE reference, guard policies, recording cost
 TRIALS ?= 5
 FIG8_RUNS ?= $(OUT)/fig8-sim
 
-.PHONY: grasp-dry fig8-sim bench-guard
+.PHONY: grasp-dry fig8-sim bench-actuation
 
 grasp-dry: $(BIN)/.installed ## the grasp sequence on mock pins (prints every phase and the coil temperatures)
 	$(BIN)/whisker grasp $(DESIGN_ARGS) --backend mock --config every-second --retract-s 0.5 --hold-s 2 --release-s 0.5
@@ -17,5 +17,5 @@ fig8-sim: $(BIN)/.installed ## record TRIALS simulated grasps (render -> track) 
 	    --retract-s 1 --hold-s 2 --release-s 1 --tail-s 1 --trial "sim $$k" -q || exit 1; done
 	$(BIN)/whisker recplot $(FIG8_RUNS)/trial-* --out docs/images/fig8_sim.png --title "simulated sensor, 8 whiskers, $(TRIALS) trials"
 
-bench-guard: $(BIN)/.installed ## guard sub-step size vs accuracy and time per update -> benchmarks/results/guard.md
-	$(BIN)/python benchmarks/bench_guard.py
+bench-actuation: $(BIN)/.installed ## thermal guard accuracy vs update period, guard policies, recording cost -> benchmarks/results/actuation.md
+	$(BIN)/python benchmarks/bench_actuation.py

@@ -101,7 +101,7 @@ CHILD = textwrap.dedent('''
     from whisker.recording import Recorder
 
     d = default_design()
-    rec = Recorder(sys.argv[1], d)
+    rec = Recorder(sys.argv[1], d, fsync=sys.argv[2] == "fsync")
     i = 0
     while True:
         rows = [f"{{i}},0,{{w}},{{i}},{{w}},{{i * 0.01}},0,1,ok,0,0,0,64" for w in range(8)]
@@ -112,11 +112,13 @@ CHILD = textwrap.dedent('''
 ''')
 
 
-def test_sigkill_mid_recording_keeps_every_completed_frame(tmp_path):
+@pytest.mark.parametrize("durability", ["fsync", "flush"])
+def test_sigkill_mid_recording_keeps_every_completed_frame(tmp_path, durability):
     script = tmp_path / "child.py"
     script.write_text(CHILD.format(tests=str(ROOT / "tests")))
     out = tmp_path / "session"
-    p = subprocess.Popen([sys.executable, str(script), str(out)], stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    p = subprocess.Popen([sys.executable, str(script), str(out), durability], stdout=subprocess.PIPE, text=True,
+                         cwd=ROOT)
     done = -1
     try:
         while done < 25:

@@ -157,6 +157,7 @@ class Recorder:
             "derived": design.derived(),
             "digest": design.digest(),
             "command": sys.argv,
+            "fsync": fsync,
             **(meta or {}),
         }
         atomic_write_json(self.folder / "metadata.json", self.meta)

@@ -42,11 +42,14 @@ from whisker.commands.grasp import build_sequence, sequence_options
               help="Seconds to keep recording after the grasp sequence ended.")
 @click.option("--image-format", type=click.Choice(["png", "jpg"]), default="png", show_default=True,
               help="png: lossless (exact replay); jpg: smaller and faster to write.")
+@click.option("--no-fsync", is_flag=True,
+              help="Flush without fsync: still loses nothing on a crash or SIGKILL of this program, but a "
+                   "power cut may lose the last seconds; ~3-10x cheaper per frame (benchmarks/results/actuation.md).")
 @click.option("--trial", default=None, help="Free text stored in metadata.json (object, trial number ...).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or summary.")
 def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_frames, no_track, backend, which, start,
         level, volts, policy, release_level, hold_level, release_s, hold_s, retract_s, tail_s, image_format,
-        trial, quiet):
+        no_fsync, trial, quiet):
     """Record a session: every frame as an image, the tracks, the actuation commands and the coils'
     estimated temperatures, all on one clock, into --out.
 
@@ -102,7 +105,7 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
     try:
         with deenergise_on_signals():
             try:
-                rec = Recorder(out_dir, design, image_format=image_format, meta=meta)
+                rec = Recorder(out_dir, design, image_format=image_format, meta=meta, fsync=not no_fsync)
             except RecordingError as err:
                 fail(f"record: {err}")
             with rec:
