@@ -151,24 +151,32 @@ def objects_in_reach(scene: Scene, design, margin_mm: float = 1.0) -> list[str]:
 
 
 def predicted_rise_K(scene: Scene, design) -> float:
-    """Largest coil temperature rise the schedule would cause (whisker.thermal), K."""
+    """Largest coil temperature rise the schedule would cause (whisker.thermal), K.
+
+    The schedule is piecewise constant, so each coil is stepped once per segment (CoilThermal.step
+    sub-steps internally).
+    """
     from whisker.sim.contract import coil_thermal, current_A
 
-    n = design.whiskers.count
-    volts = scene.actuation.voltage or design.actuation.voltage
-    th = coil_thermal(design)
-    T0 = th.ambient_C
     duration = scene.scene.duration
     if duration <= 0:
         return 0.0
-    steps = 200
-    dt = duration / steps
+    n = design.whiskers.count
+    volts = scene.actuation.voltage or design.actuation.voltage
+    th = coil_thermal(design)
+    T0 = float(th.ambient_C)
+    cuts = sorted({0.0, duration, *[e.t for e in scene.actuation.schedule if e.t < duration]})
     T = np.full(n, T0)
-    for k in range(steps):
-        lv = levels_at(scene, n, k * dt)
-        I = np.abs(current_A(design, np.abs(lv) * volts, T))
-        T = np.array([th.step(float(T[i]), float(I[i]), dt) for i in range(n)])
-    return float(np.max(T - T0))
+    peak = 0.0
+    for a, b in zip(cuts, cuts[1:]):
+        lv = levels_at(scene, n, a)
+        if not np.any(lv):
+            T = np.array([th.step(float(T[i]), 0.0, b - a) for i in range(n)])
+            continue
+        I = np.abs(np.atleast_1d(current_A(design, np.abs(lv) * volts, T)))
+        T = np.array([th.step(float(T[i]), float(I[i]), b - a) for i in range(n)])
+        peak = max(peak, float(np.max(T - T0)))
+    return peak
 
 
 def plan(scene: Scene, design) -> Plan:

@@ -50,14 +50,20 @@ class WhiskerBody:
         return math.sqrt(self.stiffness / self.inertia_kgm2)
 
 
+_BODY_CACHE: dict[str, "WhiskerBody"] = {}
+
+
 def whisker_body(design, coil_mass_g: float | None = None) -> WhiskerBody:
-    """The rigid-body data of one whisker from the design.
+    """The rigid-body data of one whisker from the design (cached per design digest).
 
     ``coil_mass_g`` defaults to the copper mass of the winding (whisker.coil, contract).
     """
     if coil_mass_g is None:
-        from whisker.sim.contract import copper_mass_g
-        coil_mass_g = copper_mass_g(design)
+        key = design.digest()
+        if key not in _BODY_CACHE:
+            from whisker.sim.contract import copper_mass_g
+            _BODY_CACHE[key] = whisker_body(design, copper_mass_g(design))
+        return _BODY_CACHE[key]
     if not (coil_mass_g >= 0 and math.isfinite(coil_mass_g)):
         raise ValueError(f"coil mass must be a finite number >= 0 g (got {coil_mass_g})")
     w, mech = design.whiskers, design.mechanics
@@ -129,8 +135,8 @@ def static_equilibrium(design, body: WhiskerBody, current_A, *, facing: str = "d
     """Radial tilt where k*theta = tau_magnetic + tau_gravity, the first one met from rest.
 
     Quasi-static loading from theta = 0 stops at the first sign change of the residual in the
-    direction the torque pushes; that cell is bisected (`iters` halvings -> error below
-    stop/(grid*2^iters) rad). Vectorised over `current_A`; with no sign change up to the stop the
+    direction the torque pushes (a `grid`-point scan); that cell is solved by Illinois regula falsi
+    (at most `iters` evaluations, stopping below 1e-13 rad). Vectorised over `current_A`; with no sign change up to the stop the
     whisker rests on the stop (``at_stop``).
     """
     I = np.atleast_1d(np.asarray(current_A, dtype=float))
@@ -150,14 +156,30 @@ def static_equilibrium(design, body: WhiskerBody, current_A, *, facing: str = "d
     neg[:, 0] = False
     has = neg.any(axis=1)
     j = np.where(has, neg.argmax(axis=1), grid)
-    lo = s[np.maximum(j - 1, 0)]
-    hi = s[j]
+    rows = np.arange(len(I))
+    jj = np.minimum(j, grid)
+    lo = s[np.maximum(jj - 1, 0)]
+    hi = s[jj]
+    flo = r[rows, np.maximum(jj - 1, 0)]
+    fhi = r[rows, jj]
+    # Illinois regula falsi inside the bracketing cell (superlinear; the bracket is kept, so it
+    # cannot escape): `iters` is an upper bound, it stops when the cell is below 1e-13 rad.
+    side = np.zeros(len(I))
     for _ in range(iters):
-        mid = 0.5 * (lo + hi)
-        rm = resid(direction * mid, I) * direction
-        lo = np.where(rm > 0, mid, lo)
-        hi = np.where(rm > 0, hi, mid)
-    theta = direction * np.where(has, 0.5 * (lo + hi), body.stop_rad)
+        den = flo - fhi
+        x = np.where(np.abs(den) > 0, (lo * (-fhi) + hi * flo) / np.where(den == 0, 1, den), 0.5 * (lo + hi))
+        x = np.clip(x, np.minimum(lo, hi), np.maximum(lo, hi))
+        fx = resid(direction * x, I) * direction
+        pos = fx > 0
+        lo = np.where(pos, x, lo)
+        flo = np.where(pos, fx, np.where(side == -1, flo * 0.5, flo))
+        hi = np.where(pos, hi, x)
+        fhi = np.where(pos, np.where(side == 1, fhi * 0.5, fhi), fx)
+        side = np.where(pos, 1, -1)
+        if np.all((np.abs(hi - lo) < 1e-13) | (fx == 0) | ~has):
+            break
+    mid = np.where(np.abs(flo) < np.abs(fhi), lo, hi)
+    theta = direction * np.where(has, mid, body.stop_rad)
     theta = np.where(r0 == 0, 0.0, theta)
     return Equilibrium(theta_rad=theta, at_stop=~has & (r0 != 0), residual_Nm=resid(theta, I))
 

@@ -182,7 +182,8 @@ class Fidelity(_S):
     magnetics_lookup: int = Field(256, ge=0, le=100000,
                                   description="sample the magnetics model at this many gaps once per run and "
                                               "interpolate (0: call the model every step)")
-    heating_interval: float = Field(0.01, gt=0, description="s between coil-temperature updates")
+    heating_interval: float = Field(0.05, gt=0, description="s between coil-temperature updates "
+                                                           "(the coil's thermal time constant is seconds)")
     heating: Literal["auto", "on", "off"] = "auto"
     heating_threshold_K: float = Field(0.5, gt=0, description="K of predicted coil rise that turns heating on")
     contact: Literal["auto", "on"] = Field("auto", description="'on' builds MuJoCo even without objects")

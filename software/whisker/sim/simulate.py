@@ -134,7 +134,7 @@ def simulate(scene: Scene, design=None, plan: Plan | None = None, progress=None,
 def _static(scene, design, plan, body) -> Result:
     n = design.whiskers.count
     lv = levels_at(scene, n, 0.0)
-    drive = Drive(scene, design, plan, body)
+    drive = Drive(scene, design, plan)          # no lookup table: the solve calls the model directly
     I = drive.currents(lv)
     theta = np.zeros((1, n, 2))
     if drive.on:
