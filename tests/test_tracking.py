@@ -201,3 +201,17 @@ def test_assign_is_one_to_one_and_gated():
     assert assign(det, ref, gate=3.0).tolist() == [1, 0, -1]
     assert assign(det[:1], ref, gate=3.0).tolist() == [-1, 0, -1]
     assert assign(np.zeros((0, 2)), ref, gate=3.0).tolist() == [-1, -1, -1]
+
+
+@pytest.mark.parametrize("count", [1, 2, 16])
+def test_uncalibrated_positions_then_calibrated_displacements_for_any_count(count):
+    d = default_design(f"whiskers.count={count}")
+    t = Tracker(d, "roi")
+    pts, img = frame(d, 0.0, seed=1)
+    r = t.track(img)  # before calibration: positions and identities, no displacement
+    assert r.all_valid and np.allclose(r.positions_px, pts, atol=0.1) and np.all(np.isnan(r.dx_px))
+    t.calibrate([img])
+    moved, img2 = frame(d, 10.0, seed=2)
+    r = t.track(img2)
+    assert r.all_valid and np.allclose(r.positions_px, moved, atol=0.1)
+    assert np.allclose(r.dx_px, moved[:, 0] - t.baseline.out_xy[:, 0], atol=1e-9)
