@@ -226,7 +226,7 @@ def main():
         "",
         "`full_level_for_s`: seconds at the requested level before the guard first reduces it "
         f"(the coil model alone, `CoilThermal.time_to_C`, reaches the cut-off in {b_rows[0]['model_time_to_cut_C_at_100pct_s']:.2f} s "
-        "at 100 % duty; the guard cuts one 20 ms update ahead). "
+        "at 100 % duty; the guard, looking one 20 ms update ahead, cuts within one update of it). "
         "`mean_level_after_150s`: the average level the guard allows once settled (derate: a steady level; "
         "cut: on/off cycling between the cut-off and the cut-off minus the hysteresis).",
         "",
