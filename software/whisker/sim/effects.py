@@ -223,6 +223,17 @@ def plan(scene: Scene, design) -> Plan:
         heat, why = True, "fidelity.heating = 'on'"
     elif fid.heating == "off":
         heat, why = False, "fidelity.heating = 'off'"
+    elif ex in ("grasp", "displacement") and scene.objects:
+        from whisker.sim.paper import grasp_scene
+        rep = grasp_scene(scene, scene.objects[0], list(range(n)), release=ex == "displacement")
+        try:
+            rise = predicted_rise_K(rep, design)
+        except MissingModule as err:
+            heat, why = False, f"cannot predict the coil's warming, run at ambient ({err})"
+        else:
+            heat = rise > fid.heating_threshold_K
+            why = (f"one {ex} attempt ({rep.scene.duration:.2g} s) warms a coil by {rise:.2g} K "
+                   f"({'>' if heat else '<='} {fid.heating_threshold_K:g} K)")
     elif ex == "angle_vs_voltage" or scene.scene.duration <= 0:
         heat, why = False, "static solve: no drive time for a coil to warm (steady angle at ambient)"
     else:
