@@ -35,7 +35,7 @@ def test_every_method_finds_every_marker_with_the_right_identity(method, rest_bi
     assert r.all_valid, r.status
     err = np.hypot(*(r.positions_px - pts).T)
     # identity: whisker i is within a pixel of ITS true marker (neighbours are ~100 px away)
-    limit = {"paper": 1.0, "contour": 0.4, "blob": 0.1, "roi": 0.1}[method]
+    limit = {"paper": 1.0, "contour": 0.4, "blob": 0.1, "roi": 0.1, "fit": 0.1}[method]
     assert err.max() < limit, err
     # displacements point radially outward for a retraction (positive tilt)
     base = t.baseline.out_xy
@@ -120,7 +120,7 @@ def test_markers_leaving_the_image_are_flagged_not_misplaced():
     assert not r.valid[i] and r.valid[others].all()
 
 
-@pytest.mark.parametrize("method", ["roi", "blob", "contour"])
+@pytest.mark.parametrize("method", ["roi", "fit", "blob", "contour"])
 def test_merging_markers_are_flagged_and_never_swap(method):
     t = Tracker(BIG, method)
     pts, img = frame(BIG, 0.0, seed=1)
@@ -216,3 +216,19 @@ def test_uncalibrated_positions_then_calibrated_displacements_for_any_count(coun
     assert r.all_valid and np.allclose(r.positions_px, moved, atol=0.1)
     assert np.allclose(r.dx_px, r.positions_px[:, 0] - t.baseline.out_xy[:, 0], atol=1e-9)
     assert np.allclose(r.dx_px, moved[:, 0] - pts[:, 0], atol=0.15)
+
+
+def test_fit_refines_the_centroid_towards_the_truth():
+    rest = frame(BIG, 0.0, seed=7, noise_sigma=0.0)[1]
+    errs = {}
+    for method in ("roi", "fit"):
+        t = Tracker(BIG, method)
+        t.calibrate([rest])
+        e = []
+        for i, tilt in enumerate((2.0, 5.0, 8.0, 11.0)):
+            pts, img = frame(BIG, tilt, seed=40 + i, noise_sigma=12.0)
+            r = t.track(img)
+            assert r.all_valid
+            e.append(r.positions_px - pts)
+        errs[method] = float(np.sqrt(np.mean(np.sum(np.square(e), axis=2))))
+    assert errs["fit"] < 0.9 * errs["roi"] < 0.1, errs

@@ -25,7 +25,7 @@ def _frames():
     return img, org, act
 
 
-@pytest.mark.parametrize("method", ["roi", "blob", "contour"])
+@pytest.mark.parametrize("method", ["roi", "fit", "blob", "contour"])
 @pytest.mark.parametrize("undistort", ["points", "image"])
 def test_real_frames_same_identities_and_a_radial_pattern(method, undistort):
     img, org, act = _frames()

@@ -15,6 +15,8 @@ Methods (all return one position per whisker; see docs/tracking.md for measured 
 ``roi``      the blob centroid computed only in a small window around each marker's last position
              (all windows in one numpy gather, re-centred once if the marker moved); a whisker whose
              window fails (lost, merged, at the border) falls back to a full-frame ``blob`` search.
+``fit``      ``roi``, then a least-squares fit of a blurred disc to each marker (2 Gauss-Newton steps,
+             all markers at once): the most exact and the slowest of the subpixel methods.
 
 Identity: whisker i is the marker nearest the design's projected rest position of whisker i
 (`whisker.geometry.project`, so the mirror of the up-looking camera and tracking.image_up_deg are
@@ -39,7 +41,7 @@ import numpy as np
 
 from whisker import geometry
 
-METHODS = ("paper", "contour", "blob", "roi")
+METHODS = ("paper", "contour", "blob", "roi", "fit")
 
 # The authors' HSV thresholds (OpenCV hue 0..180), from their public whiskerTrack.py.
 HSV_RED = (((0, 80, 60), (10, 255, 255)), ((170, 80, 60), (180, 255, 255)))
@@ -232,7 +234,8 @@ def detect_blob(img, roi_mask=None, area_range=(30.0, 600.0), threshold=REDNESS_
     return Detections(np.array(xy, float), np.array(area, float), np.array(border, bool))
 
 
-DETECTORS = {"paper": detect_paper, "contour": detect_contour, "blob": detect_blob, "roi": detect_blob}
+DETECTORS = {"paper": detect_paper, "contour": detect_contour, "blob": detect_blob, "roi": detect_blob,
+             "fit": detect_blob}
 
 
 def assign(det_xy, ref_xy, gate) -> np.ndarray:
@@ -329,6 +332,7 @@ class Tracker:
         self._merge_d2 = (2 * self.marker_r) ** 2
         self._diag = np.eye(self.n, dtype=bool)
         self._area0 = self._design_area()
+        self._fit_geom = None
         self.baseline: _Baseline | None = None
         self._last = np.full((self.n, 2), np.nan)
 
@@ -515,6 +519,76 @@ class Tracker:
         rim = (wgt * self._rim).sum(axis=(1, 2))
         return (col @ offs) / safe, (row @ offs) / safe, m, rim / safe
 
+    def _refine(self, img, mask, xy, iters: int = 2):
+        """Least-squares fit of a blurred disc to each marker's redness, started at `xy` (M, 2).
+
+        Model per window: b + a * Phi((rho - |p - p0|) / s) (Phi = standard normal CDF: a disc of
+        radius rho with a Gaussian-blurred edge of width s, on a flat background b), parameters
+        p0 = (x0, y0), rho, a, b, s, solved by `iters` Gauss-Newton steps (all markers at once).
+        Unlike a centroid it weighs each pixel by how much it says about the edge, so noise in the
+        flat interior and background does not move it. A marker whose fit fails, moves more than
+        1 px or ends with an implausible radius/contrast keeps its starting (centroid) position.
+        """
+        from scipy.special import ndtr
+
+        h, w = img.shape[:2]
+        hw = self.half
+        c = np.rint(xy).astype(int)
+        ok = (c[:, 0] >= hw) & (c[:, 1] >= hw) & (c[:, 0] < w - hw) & (c[:, 1] < h - hw)
+        if not ok.any():
+            return xy
+        disc = self._disc > 0
+        if self._fit_geom is None:
+            rr = np.hypot(self._offs[:, None], self._offs[None, :])[disc]
+            xs = np.broadcast_to(self._offs[None, :], disc.shape)[disc].astype(np.float64)
+            ys = np.broadcast_to(self._offs[:, None], disc.shape)[disc].astype(np.float64)
+            self._fit_geom = (xs, ys, rr > hw - 1.5, rr < max(self.marker_r - 2.0, 1.0))
+        xs, ys, rim, core = self._fit_geom
+        cs = c[ok]
+        win = np.stack([img[y - hw:y + hw + 1, x - hw:x + hw + 1][disc] for x, y in cs.tolist()]).astype(np.float64)
+        R = win[..., 2] - 0.5 * (win[..., 0] + win[..., 1])
+        if mask is not None:
+            inside = np.stack([mask[y - hw:y + hw + 1, x - hw:x + hw + 1][disc] for x, y in cs.tolist()]) > 0
+            full = inside.all(axis=1)  # a window the mask cuts does not fit the model: keep the centroid
+        else:
+            full = np.ones(len(cs), bool)
+        b = R[:, rim].mean(axis=1)
+        a = R[:, core].mean(axis=1) - b
+        x0 = xy[ok, 0] - cs[:, 0]
+        y0 = xy[ok, 1] - cs[:, 1]
+        rho = np.full(len(cs), self.marker_r)
+        s = np.full(len(cs), 0.9)
+        J = np.empty(R.shape + (6,))
+        try:
+            for _ in range(iters):
+                dx = xs - x0[:, None]
+                dy = ys - y0[:, None]
+                d = np.sqrt(dx * dx + dy * dy) + 1e-9
+                u = (rho[:, None] - d) / s[:, None]
+                Phi = ndtr(u)
+                g = (a / s)[:, None] * np.exp(-0.5 * u * u) * 0.3989422804014327
+                res = R - (b[:, None] + a[:, None] * Phi)
+                J[..., 0] = g * dx / d
+                J[..., 1] = g * dy / d
+                J[..., 2] = g
+                J[..., 3] = Phi
+                J[..., 4] = 1.0
+                J[..., 5] = -g * u
+                Jt = J.transpose(0, 2, 1)
+                step = np.linalg.solve(Jt @ J, Jt @ res[..., None])[..., 0]
+                x0, y0 = x0 + step[:, 0], y0 + step[:, 1]
+                rho, a, b = rho + step[:, 2], a + step[:, 3], b + step[:, 4]
+                s = np.clip(s + step[:, 5], 0.3, 5.0)
+        except np.linalg.LinAlgError:
+            return xy
+        new = np.stack([cs[:, 0] + x0, cs[:, 1] + y0], axis=1)
+        good = (full & np.all(np.isfinite(new), axis=1) & (np.hypot(*(new - xy[ok]).T) < 1.0)
+                & (rho > 0.5 * self.marker_r) & (rho < 2.0 * self.marker_r) & (a > 0))
+        out = xy.copy()
+        sel = np.flatnonzero(ok)[good]
+        out[sel] = new[good]
+        return out
+
     def _roi(self, img, mask, ref):
         """Windowed weighted centroids around `ref` (N,2). Returns positions, ok flags, masses."""
         h, w = img.shape[:2]
@@ -558,7 +632,7 @@ class Tracker:
         pos = np.full((self.n, 2), np.nan)
         status = ["lost"] * self.n
         ndet = 0
-        if self.method == "roi" and not np.isnan(ref).any():
+        if self.method in ("roi", "fit") and not np.isnan(ref).any():
             rpos, rok, mass = self._roi(img, mask, ref)
             # a marker of normal size has mass ~ area * (contrast - threshold); compare to the others
             good = sorted(mass[rok].tolist())
@@ -601,6 +675,8 @@ class Tracker:
                 ref = np.where(np.isfinite(ref), ref, self._initial_refs(det))
             pos, status = self._identify(det, ref, area_ref)
         valid = np.array([s == "ok" for s in status]) & ~np.isnan(pos).any(axis=1)
+        if self.method == "fit" and valid.any():
+            pos[valid] = self._refine(img, mask, pos[valid])
         self._last[valid] = pos[valid]
         out = self.to_output(pos)
         out[~valid] = np.nan
