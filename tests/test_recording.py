@@ -225,3 +225,28 @@ def test_sim_end_to_end_actuation_moves_tracked_markers(tmp_path):
     idle = [1, 2, 3, 5, 6, 7]
     assert np.nanmin(d[held][:, active]) > 5.0  # px: the driven whiskers retract visibly
     assert np.nanmax(d[rest]) < 1.0 and np.nanmax(d[held][:, idle]) < 1.0
+
+
+def test_cli_record_sigterm_switches_off_and_closes_cleanly(tmp_path):
+    out = tmp_path / "term"
+    p = subprocess.Popen([sys.executable, "-m", "whisker.cli", "record", "--source", "synthetic:400", "--out",
+                          str(out), "--backend", "mock", "--grasp", "all", "--hold-s", "100", "-q"],
+                         cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            if "retract" in read_table(out / "actuation.csv").get("phase", []):
+                break
+            assert p.poll() is None, p.stderr.read().decode()
+            time.sleep(0.1)
+        p.send_signal(signal.SIGTERM)
+        p.wait(timeout=60)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 128 + signal.SIGTERM
+    s = load_session(out)
+    assert s.complete and s.meta["stopped_by"] == "Terminated"
+    assert s.act_phase[-1] == "off" and np.all(s.act_applied[-1] == 0)
+    assert np.any(s.act_applied[:-1] > 0)
+    assert s.meta["guard"]["policy"] == "derate"

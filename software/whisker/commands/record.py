@@ -109,40 +109,45 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
             except RecordingError as err:
                 fail(f"record: {err}")
             with rec:
-                if which is not None:
-                    act = open_actuator(design, backend, policy=policy, log=rec.log_actuation,
-                                        backend_object=sim_backend)
-                    lvl = resolve_level(design, level, volts)
-                    lvl = act.default_level() if lvl is None else lvl
-                    steps = build_sequence(design, which, start, lvl, hold_level, retract_s, hold_s, release_s,
-                                           release_level)
-                    rec.meta["sequence"] = [{"phase": s.phase, "duration_s": s.duration_s, "levels": list(s.levels)}
-                                            for s in steps]
-                    act.neutral()
-                frames = iter(src)
-                rest = list(itertools.islice(frames, rest_frames))
-                if tracker is not None:
-                    from whisker.tracking import CalibrationError
+                try:
+                    if which is not None:
+                        act = open_actuator(design, backend, policy=policy, log=rec.log_actuation,
+                                            backend_object=sim_backend)
+                        lvl = resolve_level(design, level, volts)
+                        lvl = act.default_level() if lvl is None else lvl
+                        steps = build_sequence(design, which, start, lvl, hold_level, retract_s, hold_s,
+                                               release_s, release_level)
+                        rec.meta["sequence"] = [{"phase": s.phase, "duration_s": s.duration_s,
+                                                 "levels": list(s.levels)} for s in steps]
+                        act.neutral()
+                    frames = iter(src)
+                    rest = list(itertools.islice(frames, rest_frames))
+                    if tracker is not None:
+                        from whisker.tracking import CalibrationError
 
-                    try:
-                        tracker.calibrate(rest)
-                    except CalibrationError as err:
-                        fail(f"record: {err}")
-                bar = tqdm(desc="record", unit="frame", disable=quiet, file=sys.stderr, total=max_frames)
-                n_frames = record_frames(rec, rest, tracker=tracker, model=model, actuator=act,
-                                         on_frame=lambda c, t: bar.update())
-                runner = ThreadedSequenceRunner(act, steps) if act is not None else None
-                n_frames += record_frames(
-                    rec, frames, tracker=tracker, model=model, runner=runner, actuator=act,
-                    max_frames=None if max_frames is None else max(0, max_frames - n_frames) or None,
-                    duration_s=duration, after_sequence_s=tail_s if runner is not None else None,
-                    on_frame=lambda c, t: bar.update()) if (max_frames is None or n_frames < max_frames) else 0
-                bar.close()
-                if runner is not None:
-                    runner.stop()
-                if act is not None:
-                    act.close()
-                    rec.meta["guard"] = act.guard.state()
+                        try:
+                            tracker.calibrate(rest)
+                        except CalibrationError as err:
+                            fail(f"record: {err}")
+                    bar = tqdm(desc="record", unit="frame", disable=quiet, file=sys.stderr, total=max_frames)
+                    n_frames = record_frames(rec, rest, tracker=tracker, model=model, actuator=act,
+                                             on_frame=lambda c, t: bar.update())
+                    left = None if max_frames is None else max_frames - n_frames
+                    if left is None or left > 0:
+                        runner = ThreadedSequenceRunner(act, steps) if act is not None else None
+                        n_frames += record_frames(
+                            rec, frames, tracker=tracker, model=model, runner=runner, actuator=act,
+                            max_frames=left, duration_s=duration,
+                            after_sequence_s=tail_s if runner is not None else None,
+                            on_frame=lambda c, t: bar.update())
+                    bar.close()
+                finally:
+                    # switch off while the actuation table is still open, so the "off" row is recorded
+                    if runner is not None:
+                        runner.stop()
+                    if act is not None:
+                        act.close()
+                        rec.meta["guard"] = act.guard.state()
     except (RatingError, ValueError, RuntimeError) as err:
         fail(f"record: {err}")
     finally:
