@@ -65,7 +65,13 @@ def cli(scene_file, explain, out, overrides, attempts, trials, as_json, quiet):
     bar = tqdm(total=1000, disable=quiet, unit="", bar_format="{l_bar}{bar}| {elapsed}<{remaining}",
                desc=scene.scene.name, file=None)
 
-    def progress(frac):
+    last = [0.0]
+
+    def progress(frac):                      # throttled: at most a few redraws per second
+        now = time.monotonic()
+        if now - last[0] < 0.25 and frac < 1.0:
+            return
+        last[0] = now
         bar.n = int(1000 * min(max(frac, 0.0), 1.0))
         bar.refresh()
     t0 = time.perf_counter()
