@@ -8,7 +8,7 @@ from gpiozero.pins.mock import MockFactory, MockPWMPin
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from test_actuation_doubles import DoubleThermal, FakeClock, coil_model, double_current_A
+from test_actuation_doubles import FakeClock, coil_model
 from whisker.actuation import (Actuator, GpioBackend, SequenceRunner, Step, configuration, grasp_sequence,
                                mock_backend, run_sequence)
 from whisker.design import default_design
@@ -157,10 +157,10 @@ def test_rating_refused_above_coil_rating():
 def test_driver_rating_refused():
     # 1 ohm coils on a 12 V supply would draw ~4.9 A from a 2 A L298N channel
     d = default_design("coil.resistance=1.0", "driver.supply_voltage=12")
-    thermal = DoubleThermal(d)
-    guard = ThermalGuard(d, thermal=thermal, current_fn=double_current_A)
+    thermal, current = coil_model(d)
+    guard = ThermalGuard(d, thermal=thermal, current_fn=current)
     with pytest.raises(RatingError, match="L298N.s 2 A per channel"):
-        Actuator(d, mock_backend(d), guard=guard, watchdog=False, current_fn=double_current_A)
+        Actuator(d, mock_backend(d), guard=guard, watchdog=False)
 
 
 def test_no_shoot_through_on_reversal(design):

@@ -1,9 +1,10 @@
-"""Test doubles shared by the actuation, guard and recording tests (no tests in here).
+"""Helpers shared by the actuation, guard and recording tests (no tests in here).
 
-`DoubleThermal` / `double_current_A` stand in for the issue-4 coil model (whisker.thermal.CoilThermal,
-whisker.coil.current_A) with the same call signatures: a lumped coil (heat capacity C, thermal
-resistance to ambient Rth, copper resistance rising 0.393 %/K). `speedup` makes a coil heat up
-faster for real-time watchdog tests. Where the real modules exist, `coil_model(design)` returns them.
+`coil_model(design)` is the real coil model (whisker.thermal / whisker.coil), used by most tests.
+`DoubleThermal` / `double_current_A` are test doubles with the same call signatures (a lumped coil:
+heat capacity C, thermal resistance to ambient Rth, copper resistance rising 0.393 %/K), used only
+where a test needs what the real coil cannot give: a coil that heats `speedup` times faster (so a
+real-time watchdog test trips in under a second), a model that returns NaN, or round numbers.
 """
 
 from __future__ import annotations
@@ -40,12 +41,10 @@ class DoubleThermal:
 
 
 def coil_model(design):
-    """(thermal, current_fn): the real issue-4 coil model when it exists, else the doubles."""
-    try:
-        from whisker.coil import current_A
-        from whisker.thermal import CoilThermal
-    except ImportError:
-        return DoubleThermal(design), double_current_A
+    """(thermal, current_fn): the real coil model (whisker.thermal.CoilThermal, whisker.coil.current_A)."""
+    from whisker.coil import current_A
+    from whisker.thermal import CoilThermal
+
     return CoilThermal(design), current_A
 
 

@@ -147,20 +147,20 @@ def test_broken_model_is_not_silent(design):
 
 def test_guard_parameters_refused(design):
     with pytest.raises(ValueError, match="policy"):
-        ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A, policy="pray")
+        ThermalGuard(design, thermal=coil_model(design)[0], current_fn=coil_model(design)[1], policy="pray")
     hot = default_design("drive.guard_margin=40")
     with pytest.raises(ValueError, match="not above ambient"):
-        ThermalGuard(hot, thermal=DoubleThermal(hot), current_fn=double_current_A)
+        ThermalGuard(hot, thermal=coil_model(hot)[0], current_fn=coil_model(hot)[1])
     with pytest.raises(ValueError, match="finite"):
-        ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A,
+        ThermalGuard(design, thermal=coil_model(design)[0], current_fn=coil_model(design)[1],
                      initial_C=float("nan"))
-    g = ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A)
+    g = ThermalGuard(design, thermal=coil_model(design)[0], current_fn=coil_model(design)[1])
     with pytest.raises(ValueError, match="8 finite"):
         g.allow([0.1] * 7)
 
 
 def test_starting_hot_is_cut_immediately(design):
-    g = ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A,
+    g = ThermalGuard(design, thermal=coil_model(design)[0], current_fn=coil_model(design)[1],
                      clock=FakeClock(), initial_C=70.0)
     assert np.all(g.allow(np.full(8, 0.5)) == 0)
 
@@ -168,24 +168,24 @@ def test_starting_hot_is_cut_immediately(design):
 def test_state_file_carries_heat_to_the_next_run(design, tmp_path):
     state = tmp_path / "coils.json"
     clock = FakeClock()
-    g = ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A, clock=clock,
-                     state_file=state, policy="cut")
+    thermal, current = coil_model(design)
+    g = ThermalGuard(design, thermal=thermal, current_fn=current, clock=clock, state_file=state, policy="cut")
     hold(g, clock, np.full(8, 1.0), 3.0)
     hot = g.temperatures.copy()
     assert hot.min() > g.ambient_C + 5
     g.save_state()
     data = json.loads(state.read_text())
     assert np.allclose(data["temperatures_C"], hot)
-    g2 = ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A, state_file=state)
+    g2 = ThermalGuard(design, thermal=thermal, current_fn=current, state_file=state)
     assert np.all(g2.temperatures > g.ambient_C + 1) and np.all(g2.temperatures <= hot + 1e-9)
     # an hour later: ambient
     data["wall_time_s"] -= 7200
     state.write_text(json.dumps(data))
-    g3 = ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A, state_file=state)
+    g3 = ThermalGuard(design, thermal=thermal, current_fn=current, state_file=state)
     assert np.allclose(g3.temperatures, g.ambient_C)
     state.write_text("{broken")
     with pytest.raises(ValueError, match="unreadable coil state"):
-        ThermalGuard(design, thermal=DoubleThermal(design), current_fn=double_current_A, state_file=state)
+        ThermalGuard(design, thermal=thermal, current_fn=current, state_file=state)
 
 
 # ---- ratings ----------------------------------------------------------------------------------
@@ -210,10 +210,10 @@ def test_volts_beyond_full_scale_refused(design):
 
 
 def test_driver_check(design):
-    assert check_driver(design, double_current_A) == pytest.approx(
+    assert check_driver(design) == pytest.approx(
         full_scale_voltage(design) / design.coil.resistance)
     with pytest.raises(RatingError, match="L298N.s 2 A per channel"):
-        check_driver(default_design("coil.resistance=1.5", "driver.supply_voltage=12"), double_current_A)
+        check_driver(default_design("coil.resistance=1.5", "driver.supply_voltage=12"))
 
 
 @settings(max_examples=40, deadline=None)
@@ -221,8 +221,8 @@ def test_driver_check(design):
        temp=st.floats(0, 200))
 def test_allowed_never_exceeds_request(levels, temp):
     d = default_design()
-    g = ThermalGuard(d, thermal=DoubleThermal(d), current_fn=double_current_A, clock=FakeClock(),
-                     initial_C=temp)
+    thermal, current = coil_model(d)
+    g = ThermalGuard(d, thermal=thermal, current_fn=current, clock=FakeClock(), initial_C=temp)
     req = np.array(levels)
     a = g.allow(req)
     assert np.all(np.abs(a) <= np.abs(req) + 1e-15)
