@@ -117,3 +117,24 @@ def test_object_out_of_reach_runs_without_contact_model():
     assert not p.built("contact") and p.solver == "free"
     r = simulate(s, D, p)
     assert np.all(np.isfinite(r.theta_rad)) and r.objects_mm is None
+
+
+def test_mesh_object_rests_on_the_table_and_can_be_grasped(tmp_path):
+    import trimesh
+
+    trimesh.creation.icosphere(subdivisions=2, radius=7.0).export(tmp_path / "ball.stl")   # mm
+    scene = scene_from_dict({"scene": {"timestep": 0.002}, "base_dir": str(tmp_path),
+                             "objects": [{"name": "mesh ball", "shape": "mesh", "mesh": "ball.stl", "size": [1.0],
+                                          "mass": 0.15, "friction": 0.8}],
+                             "experiment": {"kind": "grasp", "placement_noise": 0.0, "yaw_noise": 0.0}})
+    a = paper.grasp_attempt(scene, D, scene.objects[0], list(range(8)), np.random.default_rng(0), keep=True)
+    z0 = a.result.objects_mm[0, 0, 2]
+    assert abs(z0 - 7.0) < 0.3                               # its lowest point on the table
+    assert np.all(np.isfinite(a.result.objects_mm)) and a.success
+
+
+def test_missing_mesh_file_refused_in_one_line(tmp_path):
+    s = scene_from_dict({"scene": {"duration": 0.1}, "base_dir": str(tmp_path), "fidelity": {"contact": "on"},
+                         "objects": [{"name": "m", "shape": "mesh", "mesh": "nope.stl", "size": [1.0], "mass": 1.0}]})
+    with pytest.raises(SceneError, match="mesh file not found"):
+        simulate(s, D)

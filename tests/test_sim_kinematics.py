@@ -139,3 +139,11 @@ def test_open_backend_sim_from_actuation_module():
     be = act.open_backend("sim", D)
     be.set_levels(np.zeros(D.whiskers.count))
     be.off()
+
+
+def test_whisker_actuate_cli_drives_the_simulator():
+    pytest.importorskip("whisker.commands.actuate", reason="whisker actuate (issue 7) not installed")
+    from conftest import run_cli
+
+    res = run_cli("actuate", "retract", "--backend", "sim", "--duration", "0.2")
+    assert res.returncode == 0, res.stderr

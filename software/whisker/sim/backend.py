@@ -4,7 +4,9 @@
 whiskers follow the levels through the same effects a free scene builds (kinematics, gravity,
 magnetics): each call advances the simulation to the caller's clock (``time.monotonic`` by
 default, or an injected clock for tests), holding the previous levels over the elapsed time, so
-a timed sequence on the simulator moves the whiskers as it would move the hardware.
+a timed sequence on the simulator moves the whiskers as it would move the hardware. A level is a
+signed PWM duty: the mean coil current is level x V_fs / R, V_fs the full-scale coil voltage of
+the hardware path (whisker.guard.full_scale_voltage).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ class SimBackend:
         self.facing = facing
         self.model = magnetics_model
         self.max_catch_up_s = max_catch_up_s
+        self.volts_full_scale = _full_scale_voltage(design)
         self.levels = np.zeros(self.n)
         self.theta = np.zeros((self.n, 2))
         self.omega = np.zeros((self.n, 2))
@@ -71,7 +74,7 @@ class SimBackend:
         steps = int(seconds / self.dt)
         if steps <= 0:
             return
-        I = current_A(self.design, self.levels * self.design.actuation.voltage)
+        I = current_A(self.design, self.levels * self.volts_full_scale)   # mean current of the PWM
         for _ in range(steps):
             tau = gravity_torque(self.body, self.theta, self.facing)
             if np.any(I != 0):
@@ -87,6 +90,16 @@ class SimBackend:
     def tips_mm(self) -> np.ndarray:
         self.sync()
         return tip_positions_mm(self.design, self.theta)
+
+
+def _full_scale_voltage(design) -> float:
+    """Volts at the coil at 100 % duty: the hardware's (whisker.guard.full_scale_voltage, the same
+    mapping `whisker actuate` uses), else the design's grasp voltage."""
+    try:
+        from whisker.guard import full_scale_voltage
+    except ImportError:
+        return float(design.actuation.voltage)
+    return float(full_scale_voltage(design))
 
 
 def actuation_backend(design, **kw) -> SimBackend:

@@ -71,12 +71,19 @@ def build_mjcf(scene, design, body) -> str:
     mu_tip = design.mechanics.tip_friction
     coat = min(c.tip_coating, design.l_u) * MM
     r = body.rod_radius_m
+    meshes = [o for o in scene.objects if o.shape == "mesh"]
     out = [f'<mujoco model="whisker-scene">',
            '<compiler angle="degree" inertiafromgeom="auto"/>',
            f'<option timestep="{scene.scene.timestep:.9g}" integrator="{c.integrator}" cone="{c.cone}" '
            f'impratio="{c.impratio:g}" gravity="0 0 -9.81"><flag energy="enable"/></option>',
-           f'<default><geom condim="{c.condim}" solref="{c.solref_timeconst:.9g} 1"/></default>',
-           '<worldbody>']
+           f'<default><geom condim="{c.condim}" solref="{c.solref_timeconst:.9g} 1"/></default>']
+    if meshes:
+        out.append("<asset>")
+        for o in meshes:
+            k = o.size[0] * MM
+            out.append(f'<mesh name="mesh:{o.name}" file="{_mesh_path(scene, o)}" scale="{k:.9g} {k:.9g} {k:.9g}"/>')
+        out.append("</asset>")
+    out.append('<worldbody>')
     if scene.table.enabled:
         out.append(f'<geom name="table" type="plane" size="1 1 0.01" friction="{scene.table.friction:g} 0.005 0.0001" '
                    'contype="1" conaffinity="3"/>')
@@ -129,11 +136,39 @@ def _object_xml(scene, o) -> str:
     elif o.shape in ("cylinder", "capsule"):
         g = f'<geom type="{o.shape}" size="{_f(s)}" {kw}/>'
     else:
-        raise ValueError(f"object {o.name!r}: mesh objects are not supported by this build yet; "
-                         "approximate it with a primitive")
+        g = f'<geom type="mesh" mesh="mesh:{o.name}" {kw}/>'
+        z = -_mesh_bounds(scene, o)[0][2] * o.size[0] * MM      # its lowest point rests on the table
     joint = "" if o.fixed else "<freejoint/>"
     return (f'<body name="obj:{o.name}" pos="{o.pos[0] * MM:.9g} {o.pos[1] * MM:.9g} {z + 1e-5:.9g}" quat="{_f(q)}">'
             f'{joint}{g}</body>')
+
+
+def _mesh_path(scene, o) -> str:
+    from pathlib import Path
+
+    from whisker.sim.scene import SceneError
+
+    p = Path(o.mesh)
+    p = p if p.is_absolute() else Path(scene.base_dir) / p
+    if not p.is_file():
+        raise SceneError(f"object {o.name!r}: mesh file not found: {p}")
+    return str(p.resolve())
+
+
+def _mesh_bounds(scene, o) -> np.ndarray:
+    """(2, 3) bounds of the mesh in its file's units (read with trimesh)."""
+    import trimesh
+
+    from whisker.sim.scene import SceneError
+
+    try:
+        m = trimesh.load_mesh(_mesh_path(scene, o))
+    except Exception as err:  # trimesh raises many types for unreadable files
+        raise SceneError(f"object {o.name!r}: cannot read mesh {o.mesh!r} ({err})") from None
+    b = np.asarray(m.bounds, dtype=float)
+    if b.shape != (2, 3) or not np.all(np.isfinite(b)):
+        raise SceneError(f"object {o.name!r}: mesh {o.mesh!r} has no finite bounds")
+    return b
 
 
 class MjScene:
@@ -147,7 +182,11 @@ class MjScene:
         self.mujoco = mujoco
         self.scene, self.design, self.body = scene, design, body
         self.xml = build_mjcf(scene, design, body)
-        self.model = mujoco.MjModel.from_xml_string(self.xml)
+        try:
+            self.model = mujoco.MjModel.from_xml_string(self.xml)
+        except ValueError as err:
+            from whisker.sim.scene import SceneError
+            raise SceneError(f"MuJoCo refused the scene: {str(err).splitlines()[0]}") from None
         self.data = mujoco.MjData(self.model)
         n = design.whiskers.count
         self.n = n

@@ -46,7 +46,13 @@ def grasp_scene(scene: Scene, obj, active: list[int], *, dx=0.0, dy=0.0, obj_yaw
     """One grasp attempt as a plain scene (path + schedule + the one object)."""
     e = scene.experiment
     h = e.tip_height
-    top = 2 * obj.half_height + START_HEIGHT
+    if obj.shape == "mesh":
+        from whisker.sim.mj import _mesh_bounds
+        b = _mesh_bounds(scene, obj)
+        height = float(b[1, 2] - b[0, 2]) * obj.size[0]
+    else:
+        height = 2 * obj.half_height
+    top = height + START_HEIGHT
     t1 = T_DOWN
     t2 = t1 + T_CLOSE
     t3 = t2 + T_LIFT
@@ -100,7 +106,7 @@ def grasp_attempt(scene, design, obj, active, rng, *, keep=False, release=False,
     t_end = T_DOWN + T_CLOSE + T_LIFT + T_HOLD
     k_end = int(np.searchsorted(res.t_s, t_end - 1e-9))
     k_end = min(k_end, len(z) - 1)
-    lift = float(z[k_end] - obj.half_height)
+    lift = float(z[k_end] - z[0])
     ok = bool(lift > e.hold_height and np.all(np.isfinite(z)))
     return Attempt(obj.name, len(active), ok, lift, res if keep else None)
 
