@@ -12,9 +12,10 @@ from pathlib import Path
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from conftest import ROOT, run_cli
-from whisker.bom import (MEMBRANE_PART, PRINTED_PARTS, BomError, CoilWire, awg, bom_csv, bom_rows,
-                         cad_volumes, coil_wire, led_strip, make_bom, read_print_report)
+from conftest import ROOT
+from whisker.bom import (MEMBRANE_PART, PRINTED_PARTS, BomError, CoilWire, PrintSettings, awg, bom_csv,
+                         bom_rows, cad_measures, cad_volumes, coil_wire, led_strip, make_bom, pla_grams,
+                         print_settings, read_print_report)
 from whisker.design import default_design
 from whisker.pins import PinMapError
 
@@ -75,12 +76,17 @@ def test_quantities_follow_the_whisker_count(boms):
 
 def test_material_quantities_come_from_cad_volumes():
     d = default_design()
-    vol = cad_volumes(d)
-    b = _by_item(bom_rows(d, vol, coil_wire(d)))
+    vol, area = cad_measures(d)
+    assert vol == cad_volumes(d)
+    b = _by_item(bom_rows(d, vol, coil_wire(d)))  # no areas/settings: solid upper bound
     ecoflex = vol[MEMBRANE_PART] / 1000 * d.membrane.density * (1 + d.bom.ecoflex_waste)
     assert b["ecoflex"].value == pytest.approx(ecoflex, abs=0.05)
-    pla = sum(vol[p] for p in PRINTED_PARTS) / 1000 * d.print.filament_density * (1 + d.bom.pla_waste)
-    assert b["pla"].value == pytest.approx(pla, abs=0.05)
+    solid = sum(vol[p] for p in PRINTED_PARTS) / 1000 * d.print.filament_density * (1 + d.bom.pla_waste)
+    assert b["pla"].value == pytest.approx(solid, abs=0.05)
+    s = print_settings(d)
+    assert s.shell_mm == pytest.approx(0.9) and s.infill == pytest.approx(0.15)  # 2 x 0.45 mm, 15 %
+    shell = _by_item(bom_rows(d, vol, coil_wire(d), areas_mm2=area, settings=s))["pla"].value
+    assert 0.3 * solid < shell < solid  # shells + sparse infill weigh less than solid parts
     w = coil_wire(d)
     wire = d.whiskers.count * (w.wire_length_mm + 2 * d.bom.coil_lead_length) * (1 + d.bom.wire_waste) / 1000
     assert b["magnet_wire"].value == pytest.approx(wire, abs=0.05)
@@ -142,7 +148,13 @@ def test_print_report_is_read_and_checked(tmp_path):
     grams = read_print_report(path, d)
     assert grams == {p: 10.0 + i for i, p in enumerate(PRINTED_PARTS)}
     b = _by_item(bom_rows(d, _fake_volumes(), CoilWire(1000.0, "test"), grams))
-    assert "slicer: 10.0 g" in b["print_mount"].notes and "slicer total 46.0 g" in b["pla"].notes
+    assert "slicer 10.0 g" in b["print_mount"].specification and "slicer report" in b["pla"].notes
+    assert b["pla"].value == pytest.approx(46.0 * (1 + d.bom.pla_waste), abs=0.05)
+    report["coarse"] = True
+    path.write_text(json.dumps(report))
+    with pytest.raises(BomError, match="coarse"):
+        read_print_report(path, d)
+    report["coarse"] = False
     report["design_digest"] = "0000000000000000"
     path.write_text(json.dumps(report))
     with pytest.raises(BomError, match="another|not of this design"):
@@ -160,11 +172,31 @@ def test_awg():
 
 
 def test_cli_bom(tmp_path):
+    from click.testing import CliRunner
+
+    from whisker.commands.hw import cli
+
     out = tmp_path / "bom6.csv"
-    res = run_cli("hw", "bom", "--set", "whiskers.count=6", "--out", str(out))
-    assert res.returncode == 0, res.stderr
+    res = CliRunner().invoke(cli, ["bom", "--set", "whiskers.count=6", "--out", str(out)])
+    assert res.exit_code == 0, res.output
     rows = {r["item"]: r for r in csv.DictReader(out.open())}
     assert rows["rod"]["quantity"] == "6" and rows["h_bridge"]["quantity"] == "3"
-    res = run_cli("hw", "bom", "--set", "whiskers.count=12", "--out", str(tmp_path / "bom12.csv"))
-    assert res.returncode == 2 and not (tmp_path / "bom12.csv").exists()
-    assert "PCA9685" in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    res = CliRunner().invoke(cli, ["bom", "--set", "whiskers.count=12", "--out", str(tmp_path / "bom12.csv")])
+    assert res.exit_code == 2 and not (tmp_path / "bom12.csv").exists()
+    assert "PCA9685" in res.output and len(res.output.strip().splitlines()) == 1
+
+
+@settings(max_examples=30, deadline=None)
+@given(v=st.floats(1.0, 1e6), ratio=st.floats(0.01, 100.0), shell=st.floats(0.0, 5.0), infill=st.floats(0.0, 1.0))
+def test_pla_shell_model_bounds(v, ratio, shell, infill):
+    a = v * ratio  # any surface-to-volume ratio, mm^-1
+    solid = pla_grams(v, a, 1.24)
+    g = pla_grams(v, a, 1.24, PrintSettings(shell, infill))
+    assert infill * solid - 1e-9 <= g <= solid + 1e-9
+    assert pla_grams(v, a, 1.24, PrintSettings(shell, 1.0)) == pytest.approx(solid)
+
+
+@pytest.mark.parametrize("v,a", [(0.0, 1.0), (-1.0, 1.0), (float("nan"), 1.0), (1.0, 0.0), (1.0, float("inf"))])
+def test_pla_bad_inputs(v, a):
+    with pytest.raises(BomError):
+        pla_grams(v, a, 1.24, PrintSettings(0.9, 0.15))

@@ -12,9 +12,11 @@ Quantity rules (all inputs from the Design unless stated):
 - L298N modules: ceil(N / 2) (two H-bridge channels each); PCA9685 boards when wiring.expander is
   "pca9685": ceil(2 N / 16). Pin counts and jumper wires come from ``whisker.pins.pin_map``.
 - Ecoflex: membrane CAD volume x (1 + bom.ecoflex_waste), grams with membrane.density.
-- PLA: sum of the printable parts' CAD volumes x print.filament_density (from the slicer profile) x (1 + bom.pla_waste): the mass of
-  solid (100 % infill) parts, an upper bound; a slicer report (``--print-report``) gives the mass at
-  the printer's real infill in the notes.
+- PLA, per printed part, three estimates (benchmarks/results/bom.md compares them with the slicer):
+  solid = V x density (100 % infill, an upper bound); shell = density x (S + f (V - S)) with the
+  shell S = min(V, A x perimeters x extrusion_width) from the CAD volume V and surface area A and the
+  infill fraction f of the printer profile (the BOM quantity by default); slicer = the grams PrusaSlicer
+  reports (``--print-report``, used as the quantity when given). Plus bom.pla_waste.
 - LED strip: the whole cut segments that fit in the LED channel, whose circumference is
   2 pi (cavity_radius + mount.led_strip_thickness).
 - coil supply: N x driver.supply_voltage / coil.resistance amperes, i.e. every coil at 100 % duty with
@@ -92,12 +94,73 @@ def coil_wire(design: Design) -> CoilWire:
                     getattr(w, "turns", None))
 
 
-def cad_volumes(design: Design) -> dict[str, float]:
-    """Volumes (mm^3) of the printed parts and the membrane, measured on the CadQuery solids."""
+def cad_measures(design: Design) -> tuple[dict[str, float], dict[str, float]]:
+    """(volumes mm^3, surface areas mm^2) of the printed parts and the membrane, measured on the
+    CadQuery solids (whisker.cad.parts)."""
     from whisker.cad.parts import BY_NAME
 
-    return {name: float(BY_NAME[name].build(design).Volume())
-            for name in (*PRINTED_PARTS, MEMBRANE_PART)}
+    vols, areas = {}, {}
+    for name in (*PRINTED_PARTS, MEMBRANE_PART):
+        shape = BY_NAME[name].build(design)
+        vols[name], areas[name] = float(shape.Volume()), float(shape.Area())
+    return vols, areas
+
+
+def cad_volumes(design: Design) -> dict[str, float]:
+    """Volumes (mm^3) of the printed parts and the membrane."""
+    return cad_measures(design)[0]
+
+
+@dataclass(frozen=True)
+class PrintSettings:
+    """What the shell model needs from the printer profile: shell thickness (mm), infill fraction."""
+
+    shell_mm: float
+    infill: float
+
+
+def print_settings(design: Design) -> PrintSettings:
+    """Shell = perimeters x extrusion_width, infill = fill_density, from the design's printer profile
+    (whisker.printer; PrusaSlicer keys). An auto (0) or percentage width counts as 1.125 x nozzle,
+    PrusaSlicer's automatic perimeter width."""
+    from whisker.printer import load_profile
+
+    prof = load_profile(design.print.profile)
+
+    def num(key, default):
+        text = (prof.get(key) or "").strip()
+        try:
+            return float(text.rstrip("%")) / (100.0 if text.endswith("%") else 1.0)
+        except ValueError:
+            return default
+
+    width_text = (prof.get("perimeter_extrusion_width") or prof.get("extrusion_width") or "0").strip()
+    width = 0.0 if width_text.endswith("%") else num("perimeter_extrusion_width", 0.0) or num("extrusion_width", 0.0)
+    if width <= 0:
+        width = 1.125 * prof.nozzle_diameter
+    perimeters = num("perimeters", 2.0)
+    infill = num("fill_density", 0.2)
+    if not (0 <= infill <= 1) or perimeters < 0:
+        raise BomError(f"printer profile {prof.path.name}: fill_density {infill} or perimeters {perimeters} "
+                       "out of range")
+    return PrintSettings(perimeters * width, infill)
+
+
+def pla_grams(volume_mm3: float, area_mm2: float, density_g_cm3: float,
+              settings: Optional[PrintSettings] = None) -> float:
+    """Filament mass of one printed part, g.
+
+    Without settings: solid, V x density (upper bound). With settings: shell model,
+    density x (S + f (V - S)) with S = min(V, A x shell_mm) (walls, top and bottom alike).
+    """
+    if not (volume_mm3 > 0 and math.isfinite(volume_mm3)):
+        raise BomError(f"part volume must be positive and finite, got {volume_mm3}")
+    if settings is None:
+        return volume_mm3 * density_g_cm3 / 1000.0
+    if not (area_mm2 > 0 and math.isfinite(area_mm2)):
+        raise BomError(f"part surface area must be positive and finite, got {area_mm2}")
+    shell = min(volume_mm3, area_mm2 * settings.shell_mm)
+    return density_g_cm3 * (shell + settings.infill * (volume_mm3 - shell)) / 1000.0
 
 
 def read_print_report(path: str | Path, design: Optional[Design] = None) -> dict[str, float]:
@@ -113,6 +176,9 @@ def read_print_report(path: str | Path, design: Optional[Design] = None) -> dict
         raise BomError(f"cannot read the print report {path}: {err}") from None
     if not isinstance(data, dict) or not isinstance(data.get("parts"), dict):
         raise BomError(f"{path}: no 'parts' mapping in the print report")
+    if data.get("coarse"):
+        raise BomError(f"{path} comes from a coarse slice, whose filament grams are not the real print's: "
+                       "run the print check without --coarse")
     if design is not None and data.get("design_digest") not in (None, design.digest()):
         raise BomError(f"{path} is the print report of design {data.get('design_digest')}, not of this "
                        f"design ({design.digest()}): run the print check for this design first")
@@ -156,8 +222,14 @@ def supply_current_A(design: Design) -> float:
 
 
 def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
-             print_grams: Optional[dict[str, float]] = None) -> list[BomRow]:
-    """The bill of materials for `design` (pure). volumes_mm3 from :func:`cad_volumes`."""
+             print_grams: Optional[dict[str, float]] = None,
+             areas_mm2: Optional[dict[str, float]] = None,
+             settings: Optional[PrintSettings] = None) -> list[BomRow]:
+    """The bill of materials for `design` (pure).
+
+    volumes_mm3 / areas_mm2 from :func:`cad_measures`, settings from :func:`print_settings`: with
+    both, PLA is the shell model, else the solid upper bound; print_grams (slicer) override both.
+    """
     for name in (*PRINTED_PARTS, MEMBRANE_PART):
         v = volumes_mm3.get(name)
         if v is None or not math.isfinite(v) or v <= 0:
@@ -216,22 +288,34 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
 
     from whisker.cad.parts import BY_NAME
 
+    rho = d.print.filament_density
+    use_shell = settings is not None and areas_mm2 is not None
+    use_slicer = bool(print_grams) and all(p in print_grams for p in PRINTED_PARTS)
     pla_total = 0.0
     for name in PRINTED_PARTS:
-        g = volumes_mm3[name] / 1000.0 * d.print.filament_density
-        pla_total += g
-        sliced = ""
+        solid = pla_grams(volumes_mm3[name], 0.0, rho)
+        spec = f"PLA, CAD volume {volumes_mm3[name] / 1000:.2f} cm^3 (solid {solid:.1f} g)"
+        g = solid
+        if use_shell:
+            g = pla_grams(volumes_mm3[name], areas_mm2.get(name, float("nan")), rho, settings)
+            spec += f", shell model {g:.1f} g"
         if print_grams and name in print_grams:
-            sliced = f"; slicer: {print_grams[name]:.1f} g at its infill"
-        add(f"print_{name}", "print", BY_NAME[name].description, "1", "pcs",
-            f"PLA, solid volume {volumes_mm3[name] / 1000:.2f} cm^3 = {g:.1f} g at 100 % infill",
-            "make stl (exports/)", f"print with exports/{name}.stl{sliced}")
-    sliced_total = ""
-    if print_grams and all(p in print_grams for p in PRINTED_PARTS):
-        sliced_total = f"; slicer total {sum(print_grams[p] for p in PRINTED_PARTS):.1f} g"
+            spec += f", slicer {print_grams[name]:.1f} g"
+            if use_slicer:
+                g = print_grams[name]
+        pla_total += g
+        add(f"print_{name}", "print", BY_NAME[name].description, "1", "pcs", spec,
+            "make stl (exports/)", f"print with exports/{name}.stl")
+    if use_slicer:
+        how = "slicer report (PrusaSlicer, profile infill)"
+    elif use_shell:
+        how = (f"shell model: {settings.shell_mm:g} mm shell + {settings.infill:.0%} infill from the "
+               "printer profile (within 11 % of PrusaSlicer per part, benchmarks/results/bom.md)")
+    else:
+        how = "solid parts (100 % infill, upper bound)"
     add("pla", "buy", "PLA filament for the printed parts", _num(pla_total * (1 + b.pla_waste), 1), "g",
-        f"1.75 mm PLA, density {d.print.filament_density:g} g/cm^3", "any filament vendor",
-        f"{len(PRINTED_PARTS)} parts at 100 % infill (upper bound) + {b.pla_waste:.0%} waste{sliced_total}")
+        f"1.75 mm PLA, density {rho:g} g/cm^3", "any filament vendor",
+        f"{len(PRINTED_PARTS)} parts, {how}, + {b.pla_waste:.0%} waste")
 
     add("h_bridge", "buy", f"{d.driver.type} dual H-bridge module", _num(modules), "pcs",
         "2 channels each (IN1/IN2/ENA, IN3/IN4/ENB), ENA/ENB jumpers fitted, 5V-EN jumper removed "
@@ -249,7 +333,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
 
     add("raspberry_pi", "buy", "Raspberry Pi 4 Model B", "1", "pcs",
         "2 GB or more, 40-pin header, CSI camera port", "Raspberry Pi approved resellers",
-        "with the official 5.1 V 3 A USB-C supply and a 16 GB+ microSD card")
+        "runs the camera, tracking and the coil PWM (software PWM on the IN pins)")
     add("pi_supply", "buy", "Raspberry Pi USB-C power supply", "1", "pcs", "5.1 V, 3 A, USB-C",
         "Raspberry Pi approved resellers", "")
     add("microsd", "buy", "microSD card for the Pi OS", "1", "pcs", "16 GB or more, class A1",
@@ -278,7 +362,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         f"{d.driver.supply_voltage:g} V, at least {math.ceil(amps)} A",
         "bench supply or 5 V wall adapter",
         f"{n} coils x {d.driver.supply_voltage:g} V / {c.resistance:g} ohm = {amps:.2f} A at 100 % duty "
-        "(upper bound); share its GND with the Pi")
+        "(upper bound) plus the LED strip; share its GND with the Pi")
 
     gpio_wires = sum(2 + (ch.enable is not None) for ch in channels if ch.bus == "gpio")
     if expander:
@@ -328,7 +412,8 @@ def make_bom(design: Design, print_report: str | Path | None = None) -> list[Bom
     """The BOM with CAD volumes measured now and the coil calculator's wire length."""
     pin_map(design)  # refuse an unwireable design before building any CAD
     grams = read_print_report(print_report, design) if print_report else None
-    return bom_rows(design, cad_volumes(design), coil_wire(design), grams)
+    volumes, areas = cad_measures(design)
+    return bom_rows(design, volumes, coil_wire(design), grams, areas, print_settings(design))
 
 
 def write_bom_csv(rows: list[BomRow], path: str | Path) -> Path:
