@@ -140,8 +140,27 @@ def test_broken_model_is_not_silent(design):
     clock2.advance(0.1)
     with pytest.raises(FloatingPointError):
         act.tick()
-    act.off()
     assert all(p.state == 0 for p in be.factory.pins.values())
+    with pytest.raises(RuntimeError, match="thermal guard failed"):
+        act.retract(level=0.5)  # no more commands once the guard has failed
+    assert all(p.state == 0 for p in be.factory.pins.values())
+    act.close()
+
+
+def test_derating_does_not_flood_the_log(design):
+    clock = FakeClock()
+    thermal, current = coil_model(design)
+    g = ThermalGuard(design, thermal=thermal, current_fn=current, clock=clock)
+    rows = []
+    act = Actuator(design, mock_backend(design), guard=g, watchdog=False, clock=clock,
+                   log=lambda t, p, r, a: rows.append(a.copy()))
+    act.retract(level=1.0)
+    for _ in range(3000):  # 60 s of 20 ms guard updates, deep in the derate band
+        clock.advance(0.02)
+        act.tick()
+    assert g.temperatures.max() > g.derate_from_C
+    assert 10 < len(rows) < 300  # derating steps are logged at 0.01 resolution, not every update
+    assert np.all(np.abs(np.diff(np.array(rows)[1:, 0])) >= Actuator.LOG_RESOLUTION - 1e-12)
     act.close()
 
 

@@ -284,6 +284,8 @@ class Actuator:
         self._closed = False
         self._stop = threading.Event()
         self._thread = None
+        self._logged = np.zeros(self.n)
+        self.failed: Optional[BaseException] = None
         _LIVE.add(self)
         _register_atexit()
         if watchdog and self.guard is not None:
@@ -300,6 +302,8 @@ class Actuator:
         with self._lock:
             if self._closed:
                 raise RuntimeError("actuator is closed")
+            if self.failed is not None:
+                raise RuntimeError(f"the thermal guard failed ({self.failed}); coils are off")
             self.requested = req.copy()
             if phase:
                 self.phase = phase
@@ -310,7 +314,16 @@ class Actuator:
         with self._lock:
             if self._closed:
                 return self.applied
-            return self._push(force_log=False)
+            try:
+                return self._push(force_log=False)
+            except Exception as err:  # a failing guard or backend: off, and refuse further commands
+                self.failed = err
+                self.off()
+                raise
+
+    #: a guard-driven change smaller than this (in level) is applied but not logged, so a derating
+    #: coil does not write a log row every guard period
+    LOG_RESOLUTION = 0.01
 
     def _push(self, force_log: bool) -> np.ndarray:
         now = self.clock()
@@ -323,17 +336,22 @@ class Actuator:
                 self.off()
                 raise
             self.applied = np.array(allowed, dtype=float)
-            if self.log is not None:
+            if self.log is not None and (force_log or self._worth_logging()):
+                self._logged = self.applied.copy()
                 self.log(now, self.phase, self.requested.copy(), self.applied.copy())
         return self.applied
+
+    def _worth_logging(self) -> bool:
+        last = self._logged
+        return bool(np.any(np.abs(self.applied - last) >= self.LOG_RESOLUTION)
+                    or np.any((self.applied == 0) != (last == 0)))
 
     def _watch(self) -> None:
         period = float(self.design.drive.guard_period)
         while not self._stop.wait(period):
             try:
                 self.tick()
-            except Exception:  # noqa: BLE001 - a failing guard must leave the coils off
-                self.off()
+            except Exception:  # noqa: BLE001 - tick() has switched off and recorded the failure
                 return
 
     # -- commands --------------------------------------------------------------------------
