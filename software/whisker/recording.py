@@ -32,6 +32,7 @@ import io
 import json
 import os
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -75,6 +76,7 @@ class _Table:
         self.columns = list(columns)
         self.fsync = fsync
         self.rows = 0
+        self._lock = threading.Lock()  # actuation rows come from the sequence and watchdog threads
         self._fh = open(path, "a", encoding="utf-8", newline="")
         if self._fh.tell() == 0:
             self._write([self.columns])
@@ -94,12 +96,14 @@ class _Table:
         for r in rows:
             if len(r) != len(self.columns):
                 raise RecordingError(f"{self.path.name}: row has {len(r)} values for {len(self.columns)} columns")
-        self._write(rows)
-        self.rows += len(rows)
+        with self._lock:
+            self._write(rows)
+            self.rows += len(rows)
 
     def close(self) -> None:
-        if not self._fh.closed:
-            self._fh.close()
+        with self._lock:
+            if not self._fh.closed:
+                self._fh.close()
 
 
 def _num(v, fmt: str = ".6f") -> str:
