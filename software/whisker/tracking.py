@@ -421,17 +421,18 @@ class Tracker:
                 status[i] = "ok"
         # a whisker with no detection of its own next to an oversized blob that another whisker
         # took: one blob where two markers should be -> both merged
-        owner = {int(j): i for i, j in enumerate(idx) if j >= 0}
-        for i in range(self.n):
-            if status[i] != "lost" or not np.all(np.isfinite(ref[i])):
-                continue
-            for j in range(len(det.xy)):
-                m = owner.get(j)
-                big = det.area[j] > 1.2 * (area_ref[m] if m is not None else np.nanmedian(area_ref))
-                if big and np.hypot(*(det.xy[j] - ref[i])) < 2.5 * self.marker_r:
+        lost = [i for i in range(self.n) if status[i] == "lost" and np.all(np.isfinite(ref[i]))]
+        if lost and len(det.xy):
+            owner = np.full(len(det.xy), -1)
+            owner[idx[idx >= 0]] = np.flatnonzero(idx >= 0)
+            own_area = np.where(owner >= 0, area_ref[np.maximum(owner, 0)], np.nanmedian(area_ref))
+            big = det.area > 1.2 * own_area
+            for i in lost:
+                near = big & (np.hypot(det.xy[:, 0] - ref[i, 0], det.xy[:, 1] - ref[i, 1]) < 2.5 * self.marker_r)
+                for j in np.flatnonzero(near):
                     status[i] = "merged"
-                    if m is not None:
-                        status[m] = "merged"
+                    if owner[j] >= 0:
+                        status[owner[j]] = "merged"
         for i in range(self.n):
             if status[i] == "merged":
                 pos[i] = np.nan
