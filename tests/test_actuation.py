@@ -205,10 +205,10 @@ def test_enable_pin_wiring(design):
     act.close()
 
 
-def test_pca9685_channels_refused_clearly():
+def test_gpio_backend_refuses_expander_channels():
     d = default_design('wiring.expander="pca9685"')
-    with pytest.raises(ValueError, match="PCA9685 expander backend is not implemented"):
-        mock_backend(d)
+    with pytest.raises(ValueError, match="GpioBackend drives Pi GPIO only"):
+        GpioBackend(d, pin_factory=MockFactory(pin_class=MockPWMPin))
 
 
 def test_grasp_sequence_phases_and_pins(design):
@@ -353,3 +353,47 @@ def test_gpio_backend_without_pins_fails_clearly(design):
         open_backend("gpio", design)
     with pytest.raises(ValueError, match="backend must be one of"):
         open_backend("serial", design)
+
+
+# ---- PCA9685 expander (beyond 11 coils) --------------------------------------------------------
+
+def test_pca9685_exact_channel_duties():
+    from whisker.actuation import MockI2CBus, Pca9685Backend
+
+    d = default_design("whiskers.count=12", 'wiring.expander="pca9685"')
+    chans = pin_map(d)
+    bus = MockI2CBus()
+    be = Pca9685Backend(d, bus=bus, sleep=lambda s: None)
+    assert be.addresses == [0x40, 0x41] and be.prescale == 5  # round(25e6 / (4096 * 1000)) - 1
+    for a in be.addresses:
+        assert bus.regs[a][0xFE] == 5 and bus.regs[a][0x00] == 0x20  # awake, auto-increment
+    act, _, _ = make(d, backend=be)
+    levels = np.array([1.0, -1.0, 0.5, -0.25, 0.0, 0.3, 0, 0, 0.9, -0.9, 0, 1e-3])
+    top = __import__("whisker.guard", fromlist=["max_level"]).max_level(d)
+    levels = np.clip(levels, -top, top)
+    with act:
+        act.apply(levels)
+        for c, v in zip(chans, levels):
+            fwd, bwd = be.read_duty(c.address, c.forward), be.read_duty(c.address, c.backward)
+            assert fwd == pytest.approx(max(v, 0), abs=1 / 4096) and bwd == pytest.approx(max(-v, 0), abs=1 / 4096)
+            assert not (fwd > 0 and bwd > 0)
+        act.retract(level=0.5, which="opposite")
+        mask = configuration(12, "opposite")
+        for c, m in zip(chans, mask):
+            assert be.read_duty(c.address, c.forward) == pytest.approx(0.5 if m else 0.0, abs=1 / 4096)
+    # off(): one ALL_LED_OFF_H full-off write per board, every channel reads 0
+    assert all(be.read_duty(c.address, ch) == 0 for c in chans for ch in (c.forward, c.backward))
+    assert (0x40, 0xFD, 0x10) in bus.writes[-4:] and (0x41, 0xFD, 0x10) in bus.writes[-4:]
+
+
+def test_pca9685_frequency_range_and_mock_backend():
+    from whisker.actuation import MockI2CBus, Pca9685Backend
+
+    d = default_design("whiskers.count=12", 'wiring.expander="pca9685"', "drive.pwm_frequency=5000")
+    with pytest.raises(ValueError, match="24..1526 Hz"):
+        Pca9685Backend(d, bus=MockI2CBus())
+    d = default_design("whiskers.count=12", 'wiring.expander="pca9685"')
+    be = mock_backend(d)
+    assert isinstance(be, Pca9685Backend)
+    be.set_levels(np.full(12, 0.25))
+    assert [round(s["forward_value"], 3) for s in be.pin_states()] == [0.25] * 12

@@ -52,10 +52,13 @@ def print_pins(act) -> None:
     states = getattr(act.backend, "pin_states", None)
     if states is None:
         return
-    click.echo("whisker  forward(GPIO)=duty  backward(GPIO)=duty")
-    for s in states():
-        click.echo(f"{s['whisker']:>7}  GPIO{s['forward']:<3}={s['forward_value']:.3f}     "
-                   f"GPIO{s['backward']:<3}={s['backward_value']:.3f}")
+    rows = states()
+    expander = any(s.get("address") is not None for s in rows)
+    click.echo("whisker  forward=duty  backward=duty" + ("  (PCA9685 address/channel)" if expander else "  (BCM GPIO)"))
+    for s in rows:
+        pre = f"0x{s['address']:02X}/ch" if s.get("address") is not None else "GPIO"
+        click.echo(f"{s['whisker']:>7}  {pre}{s['forward']:<3}={s['forward_value']:.3f}     "
+                   f"{pre}{s['backward']:<3}={s['backward_value']:.3f}")
 
 
 @click.command()
