@@ -1,16 +1,16 @@
 # Actuation, thermal guard and recording (issue 7). See docs/actuation.md.
 #   make grasp-dry                  the paper's grasp on gpiozero mock pins (no hardware), 4 whiskers
-#   make fig8-sim TRIALS=5          5 grasp recordings of the simulated sensor -> docs/images/fig8_sim.png
+#   make grasp-figure TRIALS=5          5 grasp recordings of the simulated sensor -> docs/images/fig8_sim.png
 #   make bench-actuation                guard estimate vs an ODE reference, guard policies, recording cost
 TRIALS ?= 5
-FIG8_RUNS ?= $(OUT)/fig8-sim
+FIG8_RUNS ?= $(OUT)/grasp-figure
 
-.PHONY: grasp-dry fig8-sim bench-actuation
+.PHONY: grasp-dry grasp-figure bench-actuation
 
 grasp-dry: $(BIN)/.installed ## the grasp sequence on mock pins (prints every phase and the coil temperatures)
 	$(BIN)/whisker grasp $(DESIGN_ARGS) --backend mock --config every-second --retract-s 0.5 --hold-s 2 --release-s 0.5
 
-fig8-sim: $(BIN)/.installed ## record TRIALS simulated grasps (render -> track) and plot the paper's Fig. 8
+grasp-figure: $(BIN)/.installed ## record TRIALS simulated grasps (render -> track) and plot the paper's Fig. 8
 	rm -rf $(FIG8_RUNS)
 	for k in $$(seq 1 $(TRIALS)); do \
 	  $(BIN)/whisker record $(DESIGN_ARGS) --source sim --backend sim --grasp all --out $(FIG8_RUNS)/trial-$$k \
