@@ -123,21 +123,16 @@ def build_mjcf(scene, design, body) -> str:
 
 
 def _object_xml(scene, o) -> str:
-    s = np.asarray(o.size) * MM
     yaw = math.radians(o.yaw)
     q = [math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
-    z = o.half_height * MM
-    fr = f'friction="{o.friction:g} 0.005 0.0001"'
-    kw = f'{fr} mass="{o.mass * 1e-3:.9g}" contype="1" conaffinity="3"'
-    if o.shape == "sphere":
-        g = f'<geom type="sphere" size="{_f(s)}" {kw}/>'
-    elif o.shape in ("ellipsoid", "box"):
-        g = f'<geom type="{o.shape}" size="{_f(s)}" {kw}/>'
-    elif o.shape in ("cylinder", "capsule"):
-        g = f'<geom type="{o.shape}" size="{_f(s)}" {kw}/>'
-    else:
-        g = f'<geom type="mesh" mesh="mesh:{o.name}" {kw}/>'
+    fr = f'friction="{o.friction:g} 0.005 0.0001" contype="1" conaffinity="3"'
+    if o.shape == "mesh":
+        g = f'<geom type="mesh" mesh="mesh:{o.name}" mass="{o.mass * 1e-3:.9g}" {fr}/>'
         z = -_mesh_bounds(scene, o)[0][2] * o.size[0] * MM      # its lowest point rests on the table
+    else:
+        g = "".join(f'<geom type="{sh}" size="{_f(np.asarray(sz) * MM)}" pos="{_f(np.asarray(ps) * MM)}" '
+                    f'mass="{m * 1e-3:.9g}" {fr}/>' for sh, sz, ps, m in o.geoms())
+        z = o.half_height * MM
     joint = "" if o.fixed else "<freejoint/>"
     return (f'<body name="obj:{o.name}" pos="{o.pos[0] * MM:.9g} {o.pos[1] * MM:.9g} {z + 1e-5:.9g}" quat="{_f(q)}">'
             f'{joint}{g}</body>')

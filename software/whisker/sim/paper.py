@@ -51,7 +51,7 @@ def grasp_scene(scene: Scene, obj, active: list[int], *, dx=0.0, dy=0.0, obj_yaw
         b = _mesh_bounds(scene, obj)
         height = float(b[1, 2] - b[0, 2]) * obj.size[0]
     else:
-        height = 2 * obj.half_height
+        height = obj.half_height + obj.bounding_radius
     top = height + START_HEIGHT
     t1 = T_DOWN
     t2 = t1 + T_CLOSE

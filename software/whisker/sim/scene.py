@@ -87,6 +87,59 @@ Shape = Literal["sphere", "ellipsoid", "box", "cylinder", "capsule", "mesh"]
 _SIZE_COUNT = {"sphere": 1, "ellipsoid": 3, "box": 3, "cylinder": 2, "capsule": 2, "mesh": 1}
 
 
+def _volume(shape: str, s: list[float]) -> float:
+    """Volume of a primitive, mm^3 (sizes as in SceneObject.size)."""
+    import math
+    if shape == "sphere":
+        return 4 / 3 * math.pi * s[0] ** 3
+    if shape == "ellipsoid":
+        return 4 / 3 * math.pi * s[0] * s[1] * s[2]
+    if shape == "box":
+        return 8 * s[0] * s[1] * s[2]
+    if shape == "cylinder":
+        return 2 * math.pi * s[0] ** 2 * s[1]
+    if shape == "capsule":
+        return 2 * math.pi * s[0] ** 2 * s[1] + 4 / 3 * math.pi * s[0] ** 3
+    return 0.0
+
+
+def _half_height(shape: str, s: list[float]) -> float:
+    if shape == "sphere":
+        return s[0]
+    if shape in ("ellipsoid", "box"):
+        return s[2]
+    if shape == "cylinder":
+        return s[1]
+    if shape == "capsule":
+        return s[1] + s[0]
+    return 0.0
+
+
+def _bound(shape: str, s: list[float]) -> float:
+    if shape == "sphere":
+        return s[0]
+    if shape == "ellipsoid":
+        return max(s)
+    if shape == "box":
+        return (s[0] ** 2 + s[1] ** 2 + s[2] ** 2) ** 0.5
+    return (s[0] ** 2 + s[1] ** 2) ** 0.5 + (s[0] if shape == "capsule" else 0.0)
+
+
+class Part(_S):
+    """A primitive rigidly attached to an object's core: petals, scales, lumps (irregular shapes)."""
+    shape: Literal["sphere", "ellipsoid", "box", "cylinder", "capsule"] = "sphere"
+    size: list[float] = Field(description="mm, as the object's size")
+    pos: list[float] = Field(default_factory=lambda: [0.0, 0.0, 0.0], description="[x, y, z] mm from the core's centre")
+
+    @model_validator(mode="after")
+    def _check(self) -> "Part":
+        if len(self.size) != _SIZE_COUNT[self.shape] or any(not v > 0 for v in self.size):
+            raise ValueError(f"part {self.shape} needs {_SIZE_COUNT[self.shape]} size value(s) > 0 mm (got {self.size})")
+        if len(self.pos) != 3:
+            raise ValueError(f"part pos is [x, y, z] mm (got {self.pos})")
+        return self
+
+
 class SceneObject(_S):
     name: str
     shape: Shape = "sphere"
@@ -98,6 +151,8 @@ class SceneObject(_S):
     yaw: float = Field(0.0, description="deg about the vertical")
     mesh: str = Field("", description="mesh file (STL/OBJ), relative to the scene file")
     fixed: bool = Field(False, description="held in place (a static body) instead of free on the table")
+    parts: list[Part] = Field(default_factory=list, description="extra primitives on the core (irregular shapes); "
+                                                                "the mass is shared by volume")
 
     @model_validator(mode="after")
     def _check(self) -> "SceneObject":
@@ -114,31 +169,31 @@ class SceneObject(_S):
 
     @property
     def half_height(self) -> float:
-        """Height of the object's centre above the table when resting upright, mm."""
-        s = self.size
-        if self.shape == "sphere":
-            return s[0]
-        if self.shape in ("ellipsoid", "box"):
-            return s[2]
-        if self.shape == "cylinder":
-            return s[1]
-        if self.shape == "capsule":
-            return s[1] + s[0]
-        return 0.0
+        """Height of the core's centre above the table when resting upright, mm (its lowest point,
+        core or part, on the table)."""
+        if self.shape == "mesh":
+            return 0.0
+        low = _half_height(self.shape, self.size)
+        for p in self.parts:
+            low = max(low, _half_height(p.shape, p.size) - p.pos[2])
+        return low
 
     @property
     def bounding_radius(self) -> float:
-        """Radius of a sphere containing the object, mm (mesh: unknown before loading -> inf)."""
-        s = self.size
+        """Radius of a sphere about the core's centre containing the object, mm (mesh: inf)."""
         if self.shape == "mesh":
             return float("inf")
-        if self.shape == "sphere":
-            return s[0]
-        if self.shape in ("ellipsoid",):
-            return max(s)
-        if self.shape == "box":
-            return (s[0] ** 2 + s[1] ** 2 + s[2] ** 2) ** 0.5
-        return (s[0] ** 2 + s[1] ** 2) ** 0.5 + (s[0] if self.shape == "capsule" else 0.0)
+        r = _bound(self.shape, self.size)
+        for p in self.parts:
+            r = max(r, (p.pos[0] ** 2 + p.pos[1] ** 2 + p.pos[2] ** 2) ** 0.5 + _bound(p.shape, p.size))
+        return r
+
+    def geoms(self) -> list[tuple[str, list[float], list[float], float]]:
+        """(shape, size mm, pos mm, mass g) of the core and each part, mass shared by volume."""
+        items = [(self.shape, list(self.size), [0.0, 0.0, 0.0])] + [(p.shape, list(p.size), list(p.pos)) for p in self.parts]
+        vol = [_volume(sh, sz) for sh, sz, _ in items]
+        tot = sum(vol) or 1.0
+        return [(sh, sz, ps, self.mass * v / tot) for (sh, sz, ps), v in zip(items, vol)]
 
 
 class ActEvent(_S):
