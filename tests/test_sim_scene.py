@@ -151,3 +151,15 @@ def test_run_folder_written(tmp_path):
     assert summary["solver"] == "free" and "magnetics" in summary["effects"]
     assert (out / "tracks.csv").read_text().count("\n") > 8 * 100
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no staging left behind
+
+
+def test_object_parts_share_mass_by_volume_and_rest_on_the_table():
+    o = scene_from_dict({"objects": [{"name": "lumpy", "shape": "sphere", "size": [4.0], "mass": 1.0,
+                                      "parts": [{"shape": "sphere", "size": [4.0], "pos": [6.0, 0.0, -2.0]}]}]}).objects[0]
+    g = o.geoms()
+    assert [round(x[3], 12) for x in g] == [0.5, 0.5] and math.isclose(sum(x[3] for x in g), 1.0)
+    assert o.half_height == 6.0                        # the part's bottom (z -2 - 4) sets the rest height
+    assert o.bounding_radius == pytest.approx(math.hypot(6, 2) + 4)
+    with pytest.raises(SceneError, match="part sphere"):
+        scene_from_dict({"objects": [{"name": "bad", "size": [1.0], "mass": 1.0,
+                                      "parts": [{"shape": "sphere", "size": [0.0]}]}]})
