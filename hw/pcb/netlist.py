@@ -60,6 +60,35 @@ def _skidl():
     return skidl
 
 
+@contextlib.contextmanager
+def _fast_traces():
+    """SKiDL records where each part/net was made with ``inspect.stack()``, which reads the source
+    of every frame: most of the build time, and seconds under a deep (pytest) stack. Within this
+    block it gets the same (file, line) list from the frame objects, without reading sources."""
+    import os
+    import sys
+
+    import skidl.circuit as skc
+
+    skidl_dir = os.path.dirname(skc.__file__)
+
+    def trace():
+        frames, f = [], sys._getframe(1)
+        while f is not None:
+            name = f.f_code.co_filename
+            if not name.startswith(skidl_dir):
+                frames.append((os.path.abspath(name), str(f.f_lineno)))
+            f = f.f_back
+        return frames[::-1]
+
+    original = skc.get_skidl_trace
+    skc.get_skidl_trace = trace
+    try:
+        yield
+    finally:
+        skc.get_skidl_trace = original
+
+
 @dataclass
 class Board:
     """A built circuit: the SKiDL Circuit and handles to its parts and nets (for tests and drawing)."""
@@ -153,6 +182,11 @@ def _pca9685(sk, ckt, k: int, address: int):
 def build_circuit(design: Design) -> Board:
     """The driver circuit for `design` (raises PinMapError when the Pi cannot serve N coils)."""
     sk = _skidl()
+    with _fast_traces():
+        return _build_circuit(sk, design)
+
+
+def _build_circuit(sk, design: Design) -> Board:
     channels = pin_map(design)
     from whisker.pins import used_gpio
 
