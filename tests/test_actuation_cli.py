@@ -26,19 +26,32 @@ def test_actuate_mock_prints_exact_pins():
     assert all(l.count("=0.000") == 2 for l in lines[-8:])  # neutral at the end
 
 
-def test_actuate_refusals():
-    r = run_cli("actuate", "levels", "1,0,0,0,0,0,0,0", "--backend", "mock", "--set", "drive.full_scale_voltage=5")
-    assert r.returncode == 2 and "above the coil rating" in r.stderr and "Traceback" not in r.stderr
-    r = run_cli("actuate", "levels", "0.1,0.2", "--backend", "mock")
-    assert r.returncode == 2 and "8 whiskers, got 2 values" in r.stderr
-    r = run_cli("actuate", "volts", "3,x,0,0,0,0,0,0", "--backend", "mock")
-    assert r.returncode == 2 and "numbers" in r.stderr
-    r = run_cli("actuate", "retract", "--backend", "mock", "--volts", "9")
-    assert r.returncode == 2 and "max_coil_voltage" in r.stderr
-    r = run_cli("actuate", "retract", "--backend", "mock", "--config", "3")
-    assert r.returncode == 2 and "divides" in r.stderr
-    r = run_cli("actuate", "retract")
-    assert r.returncode == 2 and "--backend" in r.stderr
+@pytest.mark.parametrize("args, message", [
+    (["levels", "1,0,0,0,0,0,0,0", "--set", "drive.full_scale_voltage=5"], "above the coil rating"),
+    (["levels", "0.1,0.2"], "8 whiskers, got 2 values"),
+    (["volts", "3,x,0,0,0,0,0,0"], "numbers"),
+    (["retract", "--volts", "9"], "max_coil_voltage"),
+    (["retract", "--config", "3"], "divides"),
+    (["retract", "--level", "0.5", "--volts", "1"], "not both"),
+])
+def test_actuate_refusals(args, message):
+    """In-process (click's CliRunner): one line on stderr, exit status 2, no traceback."""
+    from click.testing import CliRunner
+
+    from whisker.cli import main
+
+    r = CliRunner().invoke(main, ["actuate", *args, "--backend", "mock", "--duration", "0"])
+    assert r.exit_code == 2 and message in r.stderr and "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_backend_is_required():
+    from click.testing import CliRunner
+
+    from whisker.cli import main
+
+    r = CliRunner().invoke(main, ["actuate", "retract"])
+    assert r.exit_code == 2 and "--backend" in r.stderr
 
 
 def test_grasp_mock_phases():
