@@ -8,6 +8,7 @@ import json
 import re
 
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from conftest import ROOT, run_cli
 from whisker.design import default_design
@@ -163,3 +164,25 @@ def test_entry_point_refuses_too_many_coils():
     res = run_cli("hw", "pins", "--set", "whiskers.count=12")
     assert res.returncode == 2
     assert res.stderr.strip().startswith("pins refused: 12 coils need 24 GPIO") and "PCA9685" in res.stderr
+
+
+@settings(max_examples=12, deadline=None)
+@given(n=st.integers(1, 40), expander=st.booleans())
+def test_any_wireable_design_is_erc_clean_and_follows_the_pin_map(n, expander):
+    overrides = [f"whiskers.count={n}"] + ([EXPANDER] if expander else [])
+    d = default_design(*overrides)
+    if n > 11 and not expander:
+        with pytest.raises(PinMapError, match="PCA9685"):
+            netlist.build_circuit(d)
+        return
+    board = netlist.build_circuit(d)
+    report = netlist.run_erc(board)
+    assert report.errors == 0 and report.warnings == 0, report.messages
+    for ch in pin_map(d):
+        for signal, src in (("FWD", ch.forward), ("BWD", ch.backward)):
+            pins = _net_pins(board.nets[f"COIL{ch.whisker}_{signal}"])
+            assert len(pins) == 2  # exactly one source and one module input
+            if ch.bus == "gpio":
+                assert ("J1", str(HEADER_PIN[src])) in pins
+            else:
+                assert (f"U{101 + ch.address - 0x40}", str(7 + src)) in pins
