@@ -139,3 +139,17 @@ def test_cli_refuses_bad_sources_in_one_line(tmp_path):
     assert res.returncode == 2 and "calibration" in res.stderr
     res = run_cli("track", "--help")
     assert res.returncode == 0 and "--source" in res.stdout and "--record" in res.stdout
+
+
+def test_cli_show_without_a_display_writes_the_annotated_video(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    out = tmp_path / "t.csv"
+    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+    res = subprocess.run([sys.executable, "-m", "whisker.cli", "track", "--source", "synthetic:4", "--rest-frames", "2",
+                          "--out", str(out), "--show", "-q"], capture_output=True, text=True, env=env, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert "annotated video" in res.stderr and (tmp_path / "t.mp4").stat().st_size > 10_000
+    assert len(out.read_text().splitlines()) == 1 + 4 * 8

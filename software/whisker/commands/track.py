@@ -71,7 +71,8 @@ def annotate(image, result, baseline_xy):
               help="CSV: one row per frame and whisker (frame, time_s, whisker, x_px, y_px, dx_px, dy_px, valid, "
                    "status, theta_deg, tip_x_mm, tip_y_mm, tip_z_mm).")
 @click.option("--record", type=click.Path(dir_okay=False), default=None, help="Write an annotated video (.mp4/.avi).")
-@click.option("--show", is_flag=True, help="Show the annotated frames live (needs a display and an OpenCV with GUI).")
+@click.option("--show", is_flag=True, help="Show the annotated frames live (needs a display and an OpenCV with GUI; "
+                                         "otherwise the annotated video is written instead).")
 @click.option("--rest", "rest_source", default=None, metavar="SOURCE",
               help="Rest (untouched) frames for the baseline; default: the first --rest-frames of --source.")
 @click.option("--rest-frames", type=click.IntRange(1, 1000), default=5, show_default=True,
@@ -137,14 +138,20 @@ def cli(design, source, method, out_csv, record, show, rest_source, rest_frames,
     if show:
         import cv2
 
+        why = ""
         if not os.environ.get("DISPLAY") and sys.platform.startswith("linux"):
-            src.close()
-            fail("track: --show needs a display (DISPLAY is unset); use --record annotated.mp4 instead")
-        try:
-            cv2.namedWindow("whisker track")
-        except cv2.error:
-            src.close()
-            fail("track: this OpenCV has no GUI (opencv-python-headless); use --record annotated.mp4 instead")
+            why = "no display (DISPLAY is unset)"
+        else:
+            try:
+                cv2.namedWindow("whisker track")
+            except cv2.error:
+                why = "this OpenCV has no GUI (opencv-python-headless)"
+        if why:
+            # no live window: the annotated video instead
+            show = False
+            if record is None:
+                record = str(Path(out_csv).with_suffix(".mp4")) if out_csv else "annotated.mp4"
+            click.echo(f"track: --show: {why}; writing the annotated video {record} instead", err=True)
     rows = [CSV_HEADER]
     stream = itertools.chain(buffered, frames)
     if max_frames is not None:
