@@ -19,8 +19,7 @@ def run_scene(scene, design, plan, out: Path, progress=None) -> dict:
                      "effects": plan.names, "solver": plan.solver}
     if kind == "none":
         cam_on = plan.built("camera")
-        res = simulate(scene, design, plan, progress=(lambda f: progress(0.5 * f)) if progress and cam_on else progress,
-                       record_hz=max(200.0, scene.camera.fps))
+        res = simulate(scene, design, plan, progress=(lambda f: progress(0.5 * f)) if progress and cam_on else progress)
         if cam_on:
             from whisker.sim.camera import camera_run, png_frame, video_bytes
             keep = scene.outputs.frames or scene.outputs.video

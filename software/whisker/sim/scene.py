@@ -225,6 +225,8 @@ class CameraSpec(_S):
 
 
 class Outputs(_S):
+    record_hz: float = Field(100.0, gt=0, le=100000, description="Hz, how often the state is recorded "
+                                                                 "(the camera records at least at its fps)")
     tracks: bool = True
     frames: bool = False
     video: bool = False

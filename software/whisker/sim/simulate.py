@@ -116,8 +116,13 @@ class Drive:
 
 
 def simulate(scene: Scene, design=None, plan: Plan | None = None, progress=None,
-             record_hz: float = 200.0, body: WhiskerBody | None = None) -> Result:
-    """Simulate `scene`; `progress(fraction)` is called now and then for long runs."""
+             record_hz: float | None = None, body: WhiskerBody | None = None) -> Result:
+    """Simulate `scene`; `progress(fraction)` is called now and then for long runs.
+
+    record_hz: default the scene's ``outputs.record_hz`` (at least the camera's fps when it is on).
+    """
+    if record_hz is None:
+        record_hz = max(scene.outputs.record_hz, scene.camera.fps if scene.camera.enabled else 0.0)
     from whisker.sim.scene import scene_design
 
     design = design if design is not None else scene_design(scene)
