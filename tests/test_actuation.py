@@ -397,3 +397,59 @@ def test_pca9685_frequency_range_and_mock_backend():
     assert isinstance(be, Pca9685Backend)
     be.set_levels(np.full(12, 0.25))
     assert [round(s["forward_value"], 3) for s in be.pin_states()] == [0.25] * 12
+
+
+# ---- sequence files ---------------------------------------------------------------------------
+
+def test_sequence_file_parses_and_validates(design, tmp_path):
+    from whisker.actuation import load_sequence, sequence_from_dict
+    from whisker.guard import full_scale_voltage
+
+    root = __import__("pathlib").Path(__file__).resolve().parents[1]
+    steps = load_sequence(design, root / "docs" / "sequences" / "voltage_sweep.toml")
+    assert [s.phase for s in steps][:4] == ["neutral", "+1.0V", "rest", "+2.0V"]
+    assert steps[1].levels[0] == pytest.approx(1.0 / full_scale_voltage(design)) and not any(steps[1].levels[1:])
+    assert steps[-2].levels[0] == pytest.approx(-3.0 / full_scale_voltage(design))
+    data = {"repeat": 2, "step": [
+        {"phase": "a", "duration_s": 0.5, "config": "opposite", "start": 1, "level": -0.4},
+        {"phase": "b", "duration_s": 0.0, "levels": [0.1] * 8},
+        {"phase": "c", "duration_s": 1, "volts_each": [0, 0, 3, 0, 0, 0, 0, 0]},
+        {"phase": "d", "duration_s": 1}]}
+    st = sequence_from_dict(design, data)
+    assert len(st) == 8 and st[0].levels == (0, -0.4, 0, 0, 0, -0.4, 0, 0) and st[3].levels == (0.0,) * 8
+    bad = [
+        ({"step": []}, "no \\[\\[step\\]\\]"),
+        ({"steps": []}, "unknown key"),
+        ({"repeat": 0, "step": [{"duration_s": 1}]}, "repeat"),
+        ({"step": [{"duration_s": -1}]}, "duration_s"),
+        ({"step": [{"duration_s": 1, "level": 0.5, "volts": 1}]}, "give one of"),
+        ({"step": [{"duration_s": 1, "levels": [0.1] * 7}]}, "needs 8 values"),
+        ({"step": [{"duration_s": 1, "config": 3, "level": 0.1}]}, "divides"),
+        ({"step": [{"duration_s": 1, "volts": 9}]}, "max_coil_voltage"),
+        ({"step": [{"duration_s": 1, "speed": 2}]}, "unknown key"),
+        ({"step": [{"phase": "a,b", "duration_s": 1}]}, "without commas"),
+    ]
+    for d, msg in bad:
+        with pytest.raises(ValueError, match=msg):
+            sequence_from_dict(design, d)
+    (tmp_path / "x.toml").write_text("[[step]\n")
+    with pytest.raises(ValueError, match="x.toml"):
+        load_sequence(design, tmp_path / "x.toml")
+    with pytest.raises(RatingError, match="step 2 \\(hot\\)"):
+        sequence_from_dict(default_design("drive.full_scale_voltage=5"),
+                           {"step": [{"duration_s": 1}, {"phase": "hot", "duration_s": 1, "level": 0.9}]})
+
+
+def test_sequence_file_cli(tmp_path):
+    from click.testing import CliRunner
+
+    from whisker.cli import main
+
+    f = tmp_path / "s.toml"
+    f.write_text('[[step]]\nphase = "go"\nduration_s = 0.2\nconfig = "opposite"\nlevel = 0.5\n'
+                 '[[step]]\nphase = "stop"\nduration_s = 0.0\n')
+    r = CliRunner().invoke(main, ["actuate", "sequence", str(f), "--backend", "mock"])
+    assert r.exit_code == 0, r.stderr
+    assert " go " in r.stderr and " stop " in r.stderr and "2 steps" in r.stderr
+    r = CliRunner().invoke(main, ["actuate", "sequence", str(tmp_path / "none.toml"), "--backend", "mock"])
+    assert r.exit_code == 2 and "does not exist" in r.stderr

@@ -250,3 +250,24 @@ def test_cli_record_sigterm_switches_off_and_closes_cleanly(tmp_path):
     assert s.act_phase[-1] == "off" and np.all(s.act_applied[-1] == 0)
     assert np.any(s.act_applied[:-1] > 0)
     assert s.meta["guard"]["policy"] == "derate"
+
+
+def test_record_with_a_sequence_file(tmp_path):
+    from click.testing import CliRunner
+
+    from whisker.cli import main
+
+    f = tmp_path / "s.toml"
+    f.write_text('[[step]]\nphase = "pulse"\nduration_s = 0.1\nconfig = 2\nvolts = 2.0\n'
+                 '[[step]]\nphase = "neutral"\nduration_s = 0.0\n')
+    out = tmp_path / "rec"
+    r = CliRunner().invoke(main, ["record", "--source", "synthetic:10", "--out", str(out), "--backend", "mock",
+                                  "--sequence", str(f), "--rest-frames", "3", "-q"])
+    assert r.exit_code == 0, r.stderr
+    s = load_session(out)
+    assert "pulse" in s.act_phase and s.meta["sequence"][0]["phase"] == "pulse"
+    pulse = s.act_applied[s.act_phase.index("pulse")]
+    assert np.flatnonzero(pulse).tolist() == [0, 4] and pulse[0] > 0
+    r = CliRunner().invoke(main, ["record", "--source", "synthetic:3", "--out", str(tmp_path / "x"),
+                                  "--sequence", str(f), "--grasp", "all", "--backend", "mock"])
+    assert r.exit_code == 2 and "not both" in r.stderr

@@ -51,7 +51,7 @@ from whisker.guard import RatingError, ThermalGuard, check_driver, check_levels,
 __all__ = [
     "Backend", "GpioBackend", "Pca9685Backend", "MockI2CBus", "mock_backend", "open_backend", "Actuator", "Step", "RatingError",
     "configuration", "CONFIG_NAMES", "grasp_sequence", "run_sequence", "SequenceRunner",
-    "ThreadedSequenceRunner",
+    "ThreadedSequenceRunner", "sequence_from_dict", "load_sequence",
     "deenergise_on_signals",
 ]
 
@@ -680,6 +680,95 @@ def grasp_sequence(n: int, mask, level: float, *, retract_s: float = 1.0, hold_s
 
     return [Step("retract", retract_s, lv(level)), Step("hold", hold_s, lv(hold_level)),
             Step("release", release_s, lv(release_level)), Step("neutral", 0.0, lv(0.0))]
+
+
+def sequence_from_dict(design, data: dict) -> list[Step]:
+    """Steps from a parsed sequence file (TOML), every level checked against the ratings first.
+
+    Format::
+
+        repeat = 2                    # optional, run the steps this many times
+        [[step]]
+        phase = "retract"             # label, logged with every command
+        duration_s = 1.0
+        config = "every-second"       # optional (default "all"), with `start`
+        level = 0.8                   # signed duty on the configured whiskers, or
+        # volts = 2.5                 # signed mean volts on the configured whiskers, or
+        # levels = [0.5, 0, ...]      # one signed duty per whisker, or
+        # volts_each = [3, 0, ...]    # one signed voltage per whisker
+
+    A step with none of them is neutral. Raises ValueError / RatingError naming the step; nothing
+    runs unless the whole sequence is valid.
+    """
+    n = design.whiskers.count
+    if not isinstance(data, dict):
+        raise ValueError("a sequence file must be a TOML table with [[step]] entries")
+    unknown = set(data) - {"repeat", "step"}
+    if unknown:
+        raise ValueError(f"sequence: unknown key(s) {sorted(unknown)} (expected repeat and [[step]])")
+    raw = data.get("step")
+    if not isinstance(raw, list) or not raw:
+        raise ValueError("sequence: no [[step]] entries")
+    repeat = data.get("repeat", 1)
+    if not isinstance(repeat, int) or not 1 <= repeat <= 10000:
+        raise ValueError(f"sequence: repeat must be an integer 1..10000, got {repeat!r}")
+    allowed = {"phase", "duration_s", "config", "start", "level", "volts", "levels", "volts_each"}
+    steps = []
+    for k, st in enumerate(raw):
+        where = f"sequence step {k + 1}"
+        if not isinstance(st, dict):
+            raise ValueError(f"{where}: must be a table")
+        bad = set(st) - allowed
+        if bad:
+            raise ValueError(f"{where}: unknown key(s) {sorted(bad)}; allowed: {sorted(allowed)}")
+        phase = st.get("phase", f"step{k + 1}")
+        if not isinstance(phase, str) or not phase or "," in phase or "\n" in phase:
+            raise ValueError(f"{where}: phase must be a non-empty label without commas")
+        dur = st.get("duration_s")
+        if not isinstance(dur, (int, float)) or isinstance(dur, bool) or not (0 <= dur < float("inf")):
+            raise ValueError(f"{where}: duration_s must be a finite number >= 0, got {dur!r}")
+        given = [key for key in ("level", "volts", "levels", "volts_each") if key in st]
+        if len(given) > 1:
+            raise ValueError(f"{where}: give one of level, volts, levels, volts_each (got {given})")
+        try:
+            if not given:
+                lv = np.zeros(n)
+            elif given[0] in ("levels", "volts_each"):
+                vec = np.asarray(st[given[0]], dtype=float)
+                if vec.shape != (n,):
+                    raise ValueError(f"{given[0]} needs {n} values (one per whisker), got {vec.size}")
+                lv = vec if given[0] == "levels" else volts_to_levels(design, vec)
+            else:
+                value = float(st[given[0]])
+                if given[0] == "volts":
+                    value = float(volts_to_levels(design, value))
+                mask = configuration(n, st.get("config", "all"), int(st.get("start", 0)))
+                lv = np.where(mask, value, 0.0)
+            lv = check_levels(design, lv)
+        except RatingError as err:
+            raise RatingError(f"{where} ({phase}): {err}") from None
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"{where} ({phase}): {err}") from None
+        steps.append(Step(phase, float(dur), tuple(float(x) for x in lv)))
+    return steps * repeat
+
+
+def load_sequence(design, path) -> list[Step]:
+    """Read a sequence TOML file (see :func:`sequence_from_dict`)."""
+    from pathlib import Path
+
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+        import tomli as tomllib  # type: ignore[no-redef]
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ValueError(f"sequence file {path} does not exist") from None
+    except tomllib.TOMLDecodeError as err:
+        raise ValueError(f"sequence file {path}: {err}") from None
+    return sequence_from_dict(design, data)
 
 
 class SequenceRunner:

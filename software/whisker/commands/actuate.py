@@ -9,7 +9,7 @@ import click
 
 from whisker.cliutil import design_options, fail
 
-ACTIONS = ("neutral", "retract", "extend", "levels", "volts")
+ACTIONS = ("neutral", "retract", "extend", "levels", "volts", "sequence")
 
 
 def backend_option(f):
@@ -64,7 +64,7 @@ def print_pins(act) -> None:
 @click.command()
 @design_options
 @click.argument("action", type=click.Choice(ACTIONS))
-@click.argument("values", required=False, default=None, metavar="[V0,V1,...]")
+@click.argument("values", required=False, default=None, metavar="[V0,V1,...|FILE]")
 @backend_option
 @config_options
 @level_options
@@ -82,6 +82,8 @@ def cli(design, action, values, backend, which, start, level, volts, policy, dur
       extend    tips away from the centre on the --config whiskers
       levels    one signed PWM duty per whisker: VALUES = 0.5,0,0,-0.3,...  (+ = retract)
       volts     one signed mean coil voltage per whisker: VALUES = 3,0,-1.5,...
+      sequence  the timed steps of a TOML FILE (docs/actuation.md; checked whole before it runs);
+                --duration is ignored
 
     Levels above the coil rating (drive.max_coil_voltage) are refused. The thermal guard follows each
     coil's temperature with the coil model and derates or cuts a coil before its limit. Every coil
@@ -98,6 +100,8 @@ def cli(design, action, values, backend, which, start, level, volts, policy, dur
 
     n = design.whiskers.count
     vec = None
+    if action == "sequence":
+        return run_sequence_file(design, values, backend, policy, quiet)
     if action in ("levels", "volts"):
         if not values:
             fail(f"actuate {action}: give {n} comma-separated values, e.g. " + ",".join(["0"] * n))
@@ -139,6 +143,36 @@ def cli(design, action, values, backend, which, start, level, volts, policy, dur
                     print_pins(act)
                 g = act.guard
                 click.echo(f"done: peak coil temperature {g.peak_C.max():.1f} C (estimated), "
+                           f"guard trips {g.trips.tolist()}", err=True)
+    except (RatingError, ValueError, RuntimeError) as err:
+        fail(f"actuate: {err}")
+
+
+def run_sequence_file(design, path, backend, policy, quiet):
+    """`whisker actuate sequence FILE`: validate every step, then run them with phase reports."""
+    from whisker.actuation import deenergise_on_signals, load_sequence, open_actuator, run_sequence
+    from whisker.guard import RatingError
+
+    if not path:
+        fail("actuate sequence: give the sequence FILE (TOML with [[step]] entries)")
+    try:
+        steps = load_sequence(design, path)
+    except ValueError as err:  # includes RatingError
+        fail(f"actuate: {err}")
+    try:
+        with deenergise_on_signals():
+            with open_actuator(design, backend, policy=policy) as act:
+                last = [None]
+
+                def report(t, phase):
+                    if phase != last[0] and not quiet:
+                        last[0] = phase
+                        click.echo(f"t={t:7.2f} s  {phase:12s} applied={[round(float(x), 3) for x in act.applied]}",
+                                   err=True)
+
+                run_sequence(act, steps, on_tick=report)
+                g = act.guard
+                click.echo(f"done: {len(steps)} steps, peak coil temperature {g.peak_C.max():.1f} C (estimated), "
                            f"guard trips {g.trips.tolist()}", err=True)
     except (RatingError, ValueError, RuntimeError) as err:
         fail(f"actuate: {err}")

@@ -35,6 +35,8 @@ from whisker.commands.grasp import build_sequence, sequence_options
 @click.option("--grasp", "which", default=None, metavar="NAME|K",
               help="Run the grasp sequence on these whiskers (all, every-second, opposite, or 8/4/2) "
                    "after the rest frames, recording every actuation command.")
+@click.option("--sequence", "sequence_file", type=click.Path(dir_okay=False), default=None,
+              help="Run the timed steps of this TOML file instead of --grasp (see whisker actuate sequence).")
 @click.option("--start", type=int, default=0, show_default=True, help="First active whisker of --grasp.")
 @level_options
 @sequence_options
@@ -47,7 +49,8 @@ from whisker.commands.grasp import build_sequence, sequence_options
                    "power cut may lose the last seconds; ~3-10x cheaper per frame (benchmarks/results/actuation.md).")
 @click.option("--trial", default=None, help="Free text stored in metadata.json (object, trial number ...).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or summary.")
-def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_frames, no_track, backend, which, start,
+def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_frames, no_track, backend, which,
+        sequence_file, start,
         level, volts, policy, release_level, hold_level, release_s, hold_s, retract_s, tail_s, image_format,
         no_fsync, trial, quiet):
     """Record a session: every frame as an image, the tracks, the actuation commands and the coils'
@@ -73,9 +76,20 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
     from whisker.guard import RatingError
     from whisker.recording import Recorder, RecordingError, SimCamera, record_frames
 
-    if which is not None and backend == "none":
-        fail("record: --grasp needs an actuation --backend (mock, gpio or sim)")
-    if max_frames is None and duration is None and which is None and source in ("picamera", "sim") + tuple("0123456789"):
+    if which is not None and sequence_file is not None:
+        fail("record: give --grasp or --sequence, not both")
+    if (which is not None or sequence_file is not None) and backend == "none":
+        fail("record: --grasp and --sequence need an actuation --backend (mock, gpio or sim)")
+    file_steps = None
+    if sequence_file is not None:
+        from whisker.actuation import load_sequence
+
+        try:
+            file_steps = load_sequence(design, sequence_file)
+        except ValueError as err:
+            fail(f"record: {err}")
+    if (max_frames is None and duration is None and which is None and sequence_file is None
+            and source in ("picamera", "sim") + tuple("0123456789")):
         fail("record: a live camera needs --frames, --duration or --grasp to know when to stop")
     tracker = None
     if not no_track:
@@ -110,13 +124,16 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
                 fail(f"record: {err}")
             with rec:
                 try:
-                    if which is not None:
+                    if which is not None or file_steps is not None:
                         act = open_actuator(design, backend, policy=policy, log=rec.log_actuation,
                                             backend_object=sim_backend)
-                        lvl = resolve_level(design, level, volts)
-                        lvl = act.default_level() if lvl is None else lvl
-                        steps = build_sequence(design, which, start, lvl, hold_level, retract_s, hold_s,
-                                               release_s, release_level)
+                        if file_steps is not None:
+                            steps = file_steps
+                        else:
+                            lvl = resolve_level(design, level, volts)
+                            lvl = act.default_level() if lvl is None else lvl
+                            steps = build_sequence(design, which, start, lvl, hold_level, retract_s, hold_s,
+                                                   release_s, release_level)
                         rec.meta["sequence"] = [{"phase": s.phase, "duration_s": s.duration_s,
                                                  "levels": list(s.levels)} for s in steps]
                         act.neutral()
