@@ -186,3 +186,14 @@ def test_any_wireable_design_is_erc_clean_and_follows_the_pin_map(n, expander):
                 assert ("J1", str(HEADER_PIN[src])) in pins
             else:
                 assert (f"U{101 + ch.address - 0x40}", str(7 + src)) in pins
+
+
+def test_supply_above_logic_range_keeps_module_regulators():
+    d = default_design("driver.supply_voltage=9")
+    board = netlist.build_circuit(d)
+    assert netlist.run_erc(board).errors == 0
+    assert "+9V" in board.nets and ("U1", "13") not in _net_pins(board.nets["+9V"])  # VLOGIC not on 9 V
+    assert {("U1", "13"), ("U1", "5"), ("U1", "6")} <= _net_pins(board.nets["U1_5V"])
+    assert "keep the 5V-EN jumper fitted" in pinout.pinout_markdown(d)
+    assert "Cautions" not in pinout.pinout_markdown(d)
+    assert "Cautions" in pinout.pinout_markdown(default_design())  # 5 V: below VIH + 2.5 V

@@ -74,3 +74,16 @@ def test_modules_needed():
     assert [modules_needed(n) for n in (0, 1, 2, 3, 8, 12)] == [0, 1, 1, 2, 4, 6]
     with pytest.raises(ValueError):
         modules_needed(-1)
+
+
+def test_supply_warnings_follow_the_l298_datasheet():
+    from whisker.pins import module_makes_own_logic_supply, supply_warnings
+
+    w5 = supply_warnings(default_design())  # 5 V < 3.3 V + 2.5 V
+    assert len(w5) == 1 and "5.8 V" in w5[0] and "\n" not in w5[0]
+    assert supply_warnings(default_design("driver.supply_voltage=6.5")) == []
+    low = supply_warnings(default_design("driver.supply_voltage=4.0"))
+    assert len(low) == 2 and "separate 5 V" in low[1]
+    assert supply_warnings(default_design('driver.type="TB6612FNG"')) == []
+    assert not module_makes_own_logic_supply(default_design("driver.supply_voltage=7.0"))
+    assert module_makes_own_logic_supply(default_design("driver.supply_voltage=7.5"))

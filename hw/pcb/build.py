@@ -12,6 +12,7 @@ from pathlib import Path
 
 from whisker.design import Design
 from whisker.files import atomic_write_json, atomic_write_text, publish, staging_dir
+from whisker.pins import supply_warnings
 
 from . import diagram, netlist, pinout
 
@@ -47,6 +48,7 @@ def build(design: Design, out: str | Path, draw: bool = True) -> dict:
                                                                   and int(r[1:]) < 100),
                "parts": len(board.parts), "nets": len(board.nets),
                "erc_errors": report.errors, "erc_warnings": report.warnings,
+               "supply_warnings": supply_warnings(design),
                "files": [f for f in FILES if draw or f != "wiring.png"]}
     with staging_dir(out) as tmp:
         atomic_write_text(tmp / "pinout.csv", pinout.pinout_csv(design))

@@ -9,7 +9,9 @@ is needed. Pin electrical types follow the hardware so that SKiDL's ERC can catc
   5V-EN jumper removed) and GND POWER-IN. ENA/ENB sit on +5V (the module's jumpers), unused
   inputs of a half-used module are tied to GND, unused outputs are no-connect.
 - coils (L1..LN): two PASSIVE pins across one channel's outputs.
-- the coil supply (PS1): +5V and GND POWER-OUT; the LED strip (D1): POWER-IN.
+- the coil supply (PS1): + and GND POWER-OUT (net "+<supply>V"); the LED strip (D1): POWER-IN.
+- a supply above the L298's 7 V logic maximum keeps each module's 5V-EN jumper: its regulator then
+  drives the module's own +5V net (VLOGIC, ENA, ENB) instead of the supply.
 - PCA9685 boards (U101..) when wiring.expander = "pca9685": VCC/GND POWER-IN, SDA BIDIR, SCL and
   /OE INPUT, PWM0..15 OUTPUT, V+ (servo power) no-connect.
 
@@ -27,7 +29,7 @@ from dataclasses import dataclass, field
 
 from whisker.design import Design
 from whisker.pins import (HEADER_PIN, HEADER_POWER, PCA9685_CHANNELS, CoilChannel,
-                          expander_boards_needed, modules_needed, pin_map)
+                          expander_boards_needed, module_makes_own_logic_supply, modules_needed, pin_map)
 
 
 def _skidl():
@@ -157,14 +159,14 @@ def _coil(sk, ckt, i: int, d: Design):
 
 def _supply(sk, ckt, d: Design):
     T = sk.Pin.types
-    pins = [sk.Pin(num=1, name="+5V", func=T.PWROUT), sk.Pin(num=2, name="GND", func=T.PWROUT)]
+    pins = [sk.Pin(num=1, name="+", func=T.PWROUT), sk.Pin(num=2, name="GND", func=T.PWROUT)]
     return _part(sk, ckt, "DC_supply", "PS1", f"{d.driver.supply_voltage:g}V",
                  "TerminalBlock:TerminalBlock_bornier-2_P5.08mm", pins, "coil + LED supply")
 
 
 def _led(sk, ckt):
     T = sk.Pin.types
-    pins = [sk.Pin(num=1, name="+5V", func=T.PWRIN), sk.Pin(num=2, name="GND", func=T.PWRIN)]
+    pins = [sk.Pin(num=1, name="+", func=T.PWRIN), sk.Pin(num=2, name="GND", func=T.PWRIN)]
     return _part(sk, ckt, "LED_strip", "D1", "3528 5V strip", "whisker:LED_strip_pads", pins,
                  "LED strip in the mount's LED channel")
 
@@ -177,6 +179,11 @@ def _pca9685(sk, ckt, k: int, address: int):
     pins = [sk.Pin(num=i + 1, name=n, func=f) for i, (n, f) in enumerate(names)]
     return _part(sk, ckt, "PCA9685_board", f"U{101 + k}", f"PCA9685 @0x{address:02X}",
                  "whisker:PCA9685_breakout", pins, "16-channel 12-bit I2C PWM board")
+
+
+def supply_net_name(design: Design) -> str:
+    """Name of the coil-supply net, e.g. "+5V"."""
+    return f"+{design.driver.supply_voltage:g}V"
 
 
 def build_circuit(design: Design) -> Board:
@@ -205,8 +212,8 @@ def _build_circuit(sk, design: Design) -> Board:
     pi = P["J1"] = _pi_header(sk, ckt, used)
     ps = P["PS1"] = _supply(sk, ckt, design)
     led = P["D1"] = _led(sk, ckt)
-    v5, gnd = net("+5V"), net("GND")
-    v5 += ps["+5V"], led["+5V"]
+    v5, gnd = net(supply_net_name(design)), net("GND")
+    v5 += ps["+"], led["+"]
     gnd += ps["GND"], led["GND"]
     for phys, kind in HEADER_POWER.items():
         if kind == "GND":
@@ -214,10 +221,17 @@ def _build_circuit(sk, design: Design) -> Board:
 
     n = design.whiskers.count
     modules = [_l298n(sk, ckt, k) for k in range(modules_needed(n))]
+    own_logic = module_makes_own_logic_supply(design)
     for k, u in enumerate(modules):
         P[u.ref] = u
-        v5 += u["VS"], u["VLOGIC"], u["ENA"], u["ENB"]  # ENA/ENB: the module's jumpers to +5V
+        v5 += u["VS"]
         gnd += u["GND"]
+        if own_logic:  # 5V-EN jumper fitted: the module's regulator drives its +5V terminal
+            logic = net(f"U{k + 1}_5V")
+            logic += u["VLOGIC"], u["ENA"], u["ENB"]
+            logic.drive = sk.POWER
+        else:  # supply within the logic range: it feeds VS and the +5V terminal (jumper removed)
+            v5 += u["VLOGIC"], u["ENA"], u["ENB"]  # ENA/ENB: the module's jumpers to +5V
 
     expanders = []
     if design.wiring.expander == "pca9685":

@@ -6,7 +6,8 @@ import csv
 import io
 
 from whisker.design import Design
-from whisker.pins import HEADER_PIN, RESERVED, CoilChannel, modules_needed, pin_map, used_gpio
+from whisker.pins import (HEADER_PIN, RESERVED, CoilChannel, module_makes_own_logic_supply, modules_needed,
+                          pin_map, supply_warnings, used_gpio)
 
 COLUMNS = ("coil", "angle_deg", "signal", "source", "header_pin", "module", "module_terminal",
            "coil_terminal")
@@ -55,9 +56,14 @@ def pinout_markdown(design: Design) -> str:
              "`gpiozero.Motor(forward, backward, pwm=True)`.", ""]
     lines += ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
     lines += ["| " + " | ".join(r[c] for c in COLUMNS) + " |" for r in rows]
-    lines += ["", "## Power and ground", "",
-              f"- coil supply +{design.driver.supply_voltage:g} V -> every module's +12V (VS) and +5V "
-              "terminals (remove the module's 5V-EN regulator jumper) and the LED strip +.",
+    vs = design.driver.supply_voltage
+    if module_makes_own_logic_supply(design):
+        feed = (f"- coil supply +{vs:g} V -> every module's +12V (VS) terminal and the LED strip +; keep the "
+                "5V-EN jumper fitted (the module's regulator makes its 5 V logic; its +5V terminal stays open).")
+    else:
+        feed = (f"- coil supply +{vs:g} V -> every module's +12V (VS) and +5V terminals (remove the "
+                "module's 5V-EN regulator jumper) and the LED strip +.")
+    lines += ["", "## Power and ground", "", feed,
               "- supply GND -> every module's GND, the LED strip - and a Pi GND pin (header pin 6): "
               "the Pi's outputs need the common ground.",
               "- the Pi runs from its own USB-C supply; header 5V pins stay unconnected."]
@@ -70,4 +76,7 @@ def pinout_markdown(design: Design) -> str:
     lines += [f"- GPIO{g} (header pin {HEADER_PIN[g]}): {why}" for g, why in sorted(RESERVED.items())
               if g >= 2 and g not in used]
     lines += [f"- unused GPIO: {', '.join(str(g) for g in free) or 'none'}", ""]
+    warnings = supply_warnings(design)
+    if warnings:
+        lines += ["## Cautions", "", *[f"- {w}" for w in warnings], ""]
     return "\n".join(lines)

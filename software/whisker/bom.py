@@ -34,7 +34,8 @@ from pathlib import Path
 from typing import Optional
 
 from whisker.design import Design
-from whisker.pins import PCA9685_CHANNELS, expander_boards_needed, modules_needed, pin_map
+from whisker.pins import (PCA9685_CHANNELS, expander_boards_needed, module_makes_own_logic_supply, modules_needed,
+                          pin_map, supply_warnings)
 
 COLUMNS = ("item", "category", "description", "quantity", "unit", "specification", "example_source",
            "notes")
@@ -317,12 +318,15 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         f"1.75 mm PLA, density {rho:g} g/cm^3", "any filament vendor",
         f"{len(PRINTED_PARTS)} parts, {how}, + {b.pla_waste:.0%} waste")
 
+    vs = d.driver.supply_voltage
+    jumper = ("5V-EN jumper fitted (its regulator makes the logic supply)" if module_makes_own_logic_supply(d)
+              else f"5V-EN jumper removed (fed {vs:g} V on +12V and +5V)")
+    cautions = "".join(f"; CAUTION: {w}" for w in supply_warnings(d))
     add("h_bridge", "buy", f"{d.driver.type} dual H-bridge module", _num(modules), "pcs",
-        "2 channels each (IN1/IN2/ENA, IN3/IN4/ENB), ENA/ENB jumpers fitted, 5V-EN jumper removed "
-        f"(fed {d.driver.supply_voltage:g} V on +12V and +5V)",
+        f"2 channels each (IN1/IN2/ENA, IN3/IN4/ENB), ENA/ENB jumpers fitted, {jumper}",
         "common L298N motor-driver boards",
         f"ceil({n}/2); PWM on IN1/IN2 sets the mean coil voltage, so the paper's voltage divider "
-        "is not needed (docs/wiring.md)")
+        f"is not needed (docs/wiring.md){cautions}")
 
     if expander:
         boards = expander_boards_needed(n)
@@ -352,15 +356,15 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
 
     circ, segments, strip_mm = led_strip(d)
     add("led_strip", "buy", "LED strip lighting the coils", _num(strip_mm), "mm",
-        f"5 V 3528 LED strip, {d.mount.led_strip_width:g} mm wide, {segments} segment(s) of "
-        f"{b.led_cut_pitch:g} mm", "any 5 V 3528 strip (60 LED/m)",
+        f"{d.driver.supply_voltage:g} V 3528 LED strip (on the coil supply), {d.mount.led_strip_width:g} mm wide, {segments} segment(s) of "
+        f"{b.led_cut_pitch:g} mm", "any 3528 strip (60 LED/m) rated for the supply voltage",
         f"LED channel circumference {circ:.1f} mm = 2 pi (cavity radius + strip thickness); whole "
         "segments only")
 
     amps = supply_current_A(d)
     add("coil_supply", "buy", "DC supply for the coils and LEDs", "1", "pcs",
         f"{d.driver.supply_voltage:g} V, at least {math.ceil(amps)} A",
-        "bench supply or 5 V wall adapter",
+        "bench supply or wall adapter",
         f"{n} coils x {d.driver.supply_voltage:g} V / {c.resistance:g} ohm = {amps:.2f} A at 100 % duty "
         "(upper bound) plus the LED strip; share its GND with the Pi")
 

@@ -64,6 +64,38 @@ L298N_TERMINALS = {"A": ("IN1", "IN2", "ENA", ("OUT1", "OUT2")),
                    "B": ("IN3", "IN4", "ENB", ("OUT3", "OUT4"))}
 
 
+#: The Pi's GPIO (and a PCA9685 on the Pi's 3V3) drive a logic high of about 3.3 V.
+LOGIC_HIGH_V = 3.3
+#: ST L298 datasheet, electrical characteristics: VS (power supply) operative minimum = V_IH + 2.5 V;
+#: VSS (logic supply) 4.5..7 V. L298N modules make VSS with a 78M05 from VS when their 5V-EN jumper
+#: is fitted, which needs roughly VS >= 7 V.
+L298_VS_ABOVE_VIH = 2.5
+L298_VSS_RANGE = (4.5, 7.0)
+
+
+def supply_warnings(design) -> list[str]:
+    """Electrical cautions about the driver supply for this wiring (one line each, [] when none)."""
+    if design.driver.type.upper() != "L298N":
+        return []
+    vs = design.driver.supply_voltage
+    out = []
+    vs_min = LOGIC_HIGH_V + L298_VS_ABOVE_VIH
+    if vs < vs_min:
+        out.append(f"driver.supply_voltage = {vs:g} V is below the L298's operating minimum VS >= V_IH + "
+                   f"{L298_VS_ABOVE_VIH:g} V = {vs_min:g} V with {LOGIC_HIGH_V:g} V inputs (ST L298 "
+                   "datasheet); modules often still switch, a supply of 6-7 V is within the datasheet")
+    if vs < L298_VSS_RANGE[0]:
+        out.append(f"driver.supply_voltage = {vs:g} V is below the L298's logic supply minimum "
+                   f"{L298_VSS_RANGE[0]:g} V: feed the modules' +5V terminals from a separate 5 V supply")
+    return out
+
+
+def module_makes_own_logic_supply(design) -> bool:
+    """True when the supply exceeds the L298's logic range: keep the module's 5V-EN jumper fitted (its
+    regulator makes +5 V) instead of feeding the supply into the +5V terminal."""
+    return design.driver.supply_voltage > L298_VSS_RANGE[1]
+
+
 class PinMapError(ValueError):
     """The controller cannot serve this many coils with the chosen scheme (one-line message)."""
 

@@ -61,6 +61,8 @@ def pcb(design, out, no_diagram):
         fail(f"pcb refused: {err}")
     except ErcFailed as err:
         fail(str(err), code=1)
+    for w in summary["supply_warnings"]:
+        click.echo(f"caution: {w}", err=True)
     click.echo(f"wrote {out}/: {summary['whiskers']} coils, {summary['modules']} driver module(s), "
                f"{summary['parts']} parts, {summary['nets']} nets; ERC {summary['erc_errors']} errors, "
                f"{summary['erc_warnings']} warnings")
