@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import _sim_doubles
+from conftest import peer_data
 
 _sim_doubles.install()
 pytest.importorskip("whisker.render", reason="whisker.render (issue 6) not installed")
@@ -52,3 +53,27 @@ def test_camera_pruned_when_off_or_nothing_asked():
     none = s.with_(outputs={"tracks": False, "frames": False, "video": False})
     p = plan(none, D)
     assert not p.built("camera") and not p.built("tracking")
+
+
+def test_frames_and_video_written_by_the_cli(tmp_path):
+    from click.testing import CliRunner
+
+    from whisker.commands.sim import cli
+
+    f = tmp_path / "s.toml"
+    f.write_text('[scene]\nname = "cam"\nduration = 0.2\ntimestep = 0.001\n[sensor]\nfacing = "up"\n'
+                 '[actuation]\nschedule = [{ t = 0.05, level = 0.5 }]\n'
+                 '[camera]\nenabled = true\nfps = 10\nmethod = "roi"\ngeometry = "exact"\n'
+                 '[outputs]\nframes = true\nvideo = true\n')
+    r = CliRunner().invoke(cli, [str(f), "--out", str(tmp_path / "run"), "-q"])
+    assert r.exit_code == 0, r.output
+    assert len(list((tmp_path / "run" / "frames").glob("frame_*.png"))) == 3
+    assert (tmp_path / "run" / "video.mp4").stat().st_size > 1000
+    assert "tip RMS error" in r.output
+
+
+@pytest.mark.skipif(peer_data() is None, reason="WHISKER_PEER_DATA not set: the authors' lens calibration is not available")
+def test_end_to_end_with_the_authors_lens_distortion():
+    s = _scene(calibration=str(peer_data() / "img" / "calibration_data.npz"))
+    cr = camera_run(s, D, simulate(s, D))
+    assert cr.valid.mean() > 0.9 and cr.tip_rms_mm < 0.2

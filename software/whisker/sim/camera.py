@@ -4,7 +4,9 @@ Built when the scene's camera is on and frames, video or tracks are asked for. E
 markers' sensor-frame positions (whisker.sim.kinematics) projected by ``whisker.render.marker_pixels``
 (the design's pinhole, the lens distortion of the tracker's calibration when given), drawn by
 ``whisker.render.render_frame`` (coil blocks, red markers, wires, LED ring, noise and blur, seeded
-per frame). The tracking effect calibrates a ``whisker.tracking.Tracker`` on rest frames (the
+per frame). With ``camera.calibration`` (an .npz with ``mtx``, ``dist``, e.g. the authors' lens calibration)
+the frames carry that lens's distortion and the tracker undistorts its centroids.
+The tracking effect calibrates a ``whisker.tracking.Tracker`` on rest frames (the
 paper's rest baseline), tracks every frame, converts the pixel displacements with the tracker's
 geometry (the paper's equations) and compares the tips with the simulator's ground truth.
 """
@@ -46,15 +48,26 @@ def frame_times(duration: float, fps: float) -> np.ndarray:
 def camera_run(scene, design, result, *, keep_frames: bool = False, track: bool = True,
                rest_frames: int = 5, progress=None) -> CameraRun:
     """Render the result's frames at the scene's fps and (optionally) track them."""
-    from whisker.sim.contract import marker_pixels, render_frame, tracker
+    from pathlib import Path
+
+    from whisker.sim.contract import load_calibration, marker_pixels, render_frame, tracker
 
     cam = scene.camera
+    mtx = dist = None
+    if cam.calibration:
+        p = Path(cam.calibration)
+        p = p if p.is_absolute() else Path(scene.base_dir) / p
+        from whisker.sim.scene import SceneError
+        try:
+            mtx, dist = load_calibration(p)
+        except ValueError as err:
+            raise SceneError(f"camera.calibration: {err}") from None
     times = frame_times(float(result.t_s[-1]), cam.fps) if len(result.t_s) > 1 else np.zeros(1)
     idx = np.clip(np.searchsorted(result.t_s, times - 1e-9), 0, len(result.t_s) - 1)
     theta = result.theta_rad[idx]
     n = theta.shape[1]
-    px = np.array([marker_pixels(design, marker_positions_mm(design, th)) for th in theta])
-    rest_px = marker_pixels(design, marker_positions_mm(design, np.zeros((n, 2))))
+    px = np.array([marker_pixels(design, marker_positions_mm(design, th), mtx, dist) for th in theta])
+    rest_px = marker_pixels(design, marker_positions_mm(design, np.zeros((n, 2))), mtx, dist)
     seed0 = scene.scene.seed * 100003
 
     def draw(p, k):
@@ -63,8 +76,8 @@ def camera_run(scene, design, result, *, keep_frames: bool = False, track: bool 
     frames = [] if keep_frames else None
     est = valid = None
     if track:
-        trk = tracker(design, cam.method)
-        trk.calibrate([draw(rest_px, -1 - j) for j in range(rest_frames)])
+        trk = tracker(design, cam.method, None if mtx is None else (mtx, dist))
+        trk.calibrate([draw(rest_px, 10_000_000 + j) for j in range(rest_frames)])   # own noise seeds
         est = np.full((len(times), n, 2), np.nan)
         valid = np.zeros((len(times), n), bool)
         tracked_px = np.full((len(times), n, 2), np.nan)
@@ -78,7 +91,7 @@ def camera_run(scene, design, result, *, keep_frames: bool = False, track: bool 
             est[k, :, 0], est[k, :, 1] = g.tip_x_mm, g.tip_y_mm
             valid[k] = np.asarray(r.valid) & np.isfinite(g.tip_x_mm)
             tp = getattr(r, "track_px", None)
-            tracked_px[k] = r.positions_px if tp is None else tp
+            tracked_px[k] = r.positions_px if tp is None else tp    # raw (distorted) frame coordinates
         if progress and k % 10 == 0:
             progress(k / len(times))
     if not track:

@@ -47,9 +47,17 @@ def coil_thermal(design):
     return m.CoilThermal(design)
 
 
-def marker_pixels(design, xyz_mm) -> np.ndarray:
+def marker_pixels(design, xyz_mm, mtx=None, dist=None) -> np.ndarray:
+    """Pixel centres of markers at sensor-frame xyz (mm): pinhole, optional lens distortion."""
     m = _mod("whisker.render", "the camera effect")
-    return np.asarray(m.marker_pixels(design, np.asarray(xyz_mm, dtype=float)), dtype=float)
+    kw = {} if mtx is None else {"mtx": mtx, "dist": dist}
+    return np.asarray(m.marker_pixels(design, np.asarray(xyz_mm, dtype=float), **kw), dtype=float)
+
+
+def load_calibration(path):
+    """(mtx, dist) from an .npz lens calibration (whisker.tracking)."""
+    m = _mod("whisker.tracking", "the camera's lens distortion")
+    return m.load_calibration(path)
 
 
 def render_frame(design, markers_px, **kw) -> np.ndarray:
@@ -57,9 +65,9 @@ def render_frame(design, markers_px, **kw) -> np.ndarray:
     return m.render_frame(design, markers_px, **kw)
 
 
-def tracker(design, method: str = "paper"):
+def tracker(design, method: str = "paper", calibration=None):
     m = _mod("whisker.tracking", "the tracking effect")
-    return m.Tracker(design, method=method)
+    return m.Tracker(design, method=method, calibration=calibration)
 
 
 def geometry_deflection(design, dx_px, dy_px):

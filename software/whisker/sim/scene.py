@@ -222,6 +222,8 @@ class CameraSpec(_S):
     blur_px: float = Field(0.8, ge=0, le=20, description="px, Gaussian blur sigma")
     method: str = Field("paper", description="tracking method (whisker.tracking)")
     geometry: Literal["paper", "exact"] = Field("paper", description="pixels -> tip model (whisker.geometry)")
+    calibration: str = Field("", description="lens calibration .npz (mtx, dist), relative to the scene: the "
+                                             "frames get its distortion and the tracker undistorts; empty: pinhole")
 
 
 class Outputs(_S):
