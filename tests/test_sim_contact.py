@@ -34,7 +34,7 @@ def test_pruned_contact_equals_full_model_without_objects():
     b = simulate(full, D)
     assert a.plan.solver == "free" and b.plan.solver == "mujoco"
     assert np.ptp(a.theta_deg[:, 0, 0]) > 2.0
-    assert np.abs(a.theta_deg - b.theta_deg).max() < 0.06     # deg, of a ~3 deg swing
+    assert np.abs(a.theta_deg - b.theta_deg).max() < 0.06     # deg, of a ~5 deg swing (measured 0.044)
 
 
 def test_mujoco_joint_axes_match_kinematics():
