@@ -1,7 +1,7 @@
 # Printing: slicer check + print report, and preview images (issue 3). See docs/printing.md.
 #   make check-print                 slice every printable part of the default design (PrusaSlicer)
 #   make check-print WHISKERS=12     the same for a 12-whisker design
-#   make preview PREVIEW=docs/images refresh the README's images (default design only)
+#   make preview PREVIEW=docs/images/parts refresh the README's images (default design only)
 PREVIEW ?= $(OUT)/preview
 
 .PHONY: check-print preview

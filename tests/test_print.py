@@ -360,3 +360,36 @@ def test_coupon_follows_the_design_clearances():
     assert layout(d)["width"] < layout(default_design())["width"]
     with pytest.raises(DesignError, match="coupon_clearances"):
         default_design("print.coupon_clearances=[0.1, 0.1]")
+
+
+# ---- previews --------------------------------------------------------------------------------------
+
+def test_render_writes_a_png_of_the_requested_size():
+    import io
+
+    from matplotlib.image import imread
+
+    from whisker.cad.preview import fine, render
+
+    box = trimesh.creation.box(extents=[30, 10, 5])
+    split = fine(box, 2.0)
+    assert split.edges_unique_length.max() <= 2.0 + 1e-9 and split.area == pytest.approx(box.area)
+    png = render([(box, "#d99a9a")], "box", (240, 180), bed=(250, 210))
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    img = imread(io.BytesIO(png))
+    assert img.shape[:2] == (180, 240)
+    assert img[..., :3].std() > 0.05  # something was drawn, not a blank canvas
+
+
+def test_assembly_has_every_whiskers_rod_coil_and_magnet(default_build):
+    from whisker.cad.preview import assembly_meshes
+
+    d = default_design()
+    items = assembly_meshes(d, default_build, load_manifest(default_build))
+    assert len(items) == 2 + 3 * d.whiskers.count
+    mount = items[0][0]
+    assert mount.is_watertight and mount.bounds[0, 1] == pytest.approx(0.0, abs=1e-6)  # cut open at y = 0
+    rods = items[2:2 + d.whiskers.count]
+    centres = [np.degrees(np.arctan2(m.centroid[1], m.centroid[0])) for m, _ in rods]
+    for want in d.whisker_angles_deg:  # every whisker angle has a rod (angular distance, wraps at 360)
+        assert min(abs((c - want + 180) % 360 - 180) for c in centres) < 0.5

@@ -344,7 +344,8 @@ def report_markdown(design: Design, profile: PrinterProfile, results: list[PartP
         g, oh = r.gcode, r.overhang
         worst = oh.get("largest_unbridgeable") if oh else None
         ohs = (f"{worst['area_mm2']:.0f} mm^2 unbridgeable at z {worst['z_mm']:.1f}" if worst
-               else "bridges only" if oh and oh.get("regions") else "none")
+               else f"{oh['regions']} regions, {oh['area_mm2']:.0f} mm^2, all bridges/arches <= {MAX_BRIDGE_MM:g} mm"
+               if oh and oh.get("regions") else "none")
         sup = ("yes" if r.supports else "no") + (" (slicer: none generated)" if r.supports and g and not g.get("support_material") else "")
         size = " x ".join(f"{v:.1f}" for v in r.size_mm) or "-"
         t = fmt_duration(g["time_s"]) if "time_s" in g else "-"

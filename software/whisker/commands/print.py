@@ -72,14 +72,20 @@ def check(design, out, coarse, no_gcode, quiet):
     except ToolMissing as err:
         fail(str(err), code=3)
     _ensure_build(design, out, quiet)
-    bar = tqdm(total=None, desc="slicing", unit="part", file=sys.stderr, disable=quiet)
+    parts = json.loads((out / "manifest.json").read_text())["parts"].values()
+    bar = tqdm(total=sum(bool(p.get("printable")) for p in parts), desc="slicing", unit="part", file=sys.stderr,
+               disable=quiet)
+    started = []
 
-    def progress(msg: str) -> None:
+    def progress(msg: str) -> None:  # called as each part starts
+        if started:
+            bar.update(1)
+        started.append(msg)
         bar.set_postfix_str(msg.removeprefix("checking and slicing "))
-        bar.update(1)
 
     try:
         report = check_exports(design, out, coarse=coarse, keep_gcode=not no_gcode, progress=progress)
+        bar.update(1 if started else 0)
     except ToolMissing as err:
         fail(str(err), code=3)
     finally:
