@@ -147,3 +147,13 @@ def test_whisker_actuate_cli_drives_the_simulator():
 
     res = run_cli("actuate", "retract", "--backend", "sim", "--duration", "0.2")
     assert res.returncode == 0, res.stderr
+
+
+def test_heating_effect_warms_the_coil_and_weakens_the_pull():
+    base = {"scene": {"duration": 6.0, "timestep": 5e-3}, "sensor": {"facing": "down"},
+            "actuation": {"voltage": 2.0, "schedule": [{"t": 0.0, "level": 1.0}, {"t": 0.01, "level": 1.0}]}}
+    hot = simulate(scene_from_dict({**base, "fidelity": {"heating": "auto"}}), D)
+    cold = simulate(scene_from_dict({**base, "fidelity": {"heating": "off"}}), D)
+    assert hot.plan.built("heating") and not cold.plan.built("heating")
+    assert hot.temperature_C[-1].min() - hot.temperature_C[0].max() > 5.0      # K
+    assert hot.theta_deg[-1, 0, 0] < cold.theta_deg[-1, 0, 0] - 0.05            # hotter coil, less current
