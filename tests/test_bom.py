@@ -200,3 +200,16 @@ def test_pla_shell_model_bounds(v, ratio, shell, infill):
 def test_pla_bad_inputs(v, a):
     with pytest.raises(BomError):
         pla_grams(v, a, 1.24, PrintSettings(0.9, 0.15))
+
+
+def test_cad_failure_is_one_line_bom_error(monkeypatch):
+    import whisker.cad.parts as parts
+
+    def broken(design):
+        raise RuntimeError("BRep_API: command not done\nmore detail")
+
+    spec = parts.BY_NAME["mold_lid"]
+    monkeypatch.setitem(parts.BY_NAME, "mold_lid", type(spec)(spec.name, broken, spec.printable, spec.description))
+    with pytest.raises(BomError, match=r"CAD part 'mold_lid' cannot be built .*BRep_API: command not done\)") as err:
+        cad_measures(default_design())
+    assert "\n" not in str(err.value)

@@ -90,7 +90,10 @@ def coil_wire(design: Design) -> CoilWire:
         c = design.coil
         length = c.turns * math.pi * (c.outer_diameter + c.inner_diameter) / 2.0
         return CoilWire(length, "mean-turn estimate (whisker.coil not available)", None, c.turns)
-    w = winding(design)
+    try:
+        w = winding(design)
+    except ValueError as err:  # whisker.coil.CoilError: an impossible winding request
+        raise BomError(f"coil winding: {err}") from err
     return CoilWire(float(w.wire_length_mm), "whisker.coil.winding", getattr(w, "fits", None),
                     getattr(w, "turns", None))
 
@@ -102,8 +105,13 @@ def cad_measures(design: Design) -> tuple[dict[str, float], dict[str, float]]:
 
     vols, areas = {}, {}
     for name in (*PRINTED_PARTS, MEMBRANE_PART):
-        shape = BY_NAME[name].build(design)
-        vols[name], areas[name] = float(shape.Volume()), float(shape.Area())
+        try:
+            shape = BY_NAME[name].build(design)
+            vols[name], areas[name] = float(shape.Volume()), float(shape.Area())
+        except Exception as err:  # OCC raises its own types; name the part and keep one line
+            msg = str(err).splitlines()[0] if str(err) else type(err).__name__
+            raise BomError(f"CAD part '{name}' cannot be built for this design ({msg}); "
+                           "run `make stl` for the geometry checks") from err
     return vols, areas
 
 
