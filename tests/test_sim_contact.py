@@ -17,6 +17,7 @@ from whisker.sim import SceneError, plan, scene_from_dict, simulate  # noqa: E40
 from whisker.sim import paper  # noqa: E402
 from whisker.sim.kinematics import _point_mm, whisker_body  # noqa: E402
 from whisker.sim.mj import MjScene  # noqa: E402
+from conftest import ROOT  # noqa: E402
 
 D = default_design()
 BODY = whisker_body(D)
@@ -65,13 +66,20 @@ def test_grasp_holds_a_centred_foam_ball_with_eight_and_not_without_drive():
     assert not none.success
 
 
-def test_grasp_order_small_run():
-    """8 >= 4 >= 2 whiskers on a short run (the full table: make sim-grasp / docs/sim.md)."""
-    scene = scene_from_dict({"scene": {"timestep": 0.002, "seed": 5}, "objects": [BALL],
-                             "experiment": {"kind": "grasp", "attempts": 4, "placement_noise": 2.5}})
-    tab = paper.grasp_table(scene, D)
-    r = tab["rates"]["foam ball"]
-    assert r[0] >= r[1] >= r[2] and r[0] > r[2]
+def test_grasp_order_centred_objects_of_the_paper_scene():
+    """Centred, unrotated placement (deterministic): 8 whiskers hold every object of grasp.toml, and
+    every object held by fewer whiskers is also held by more (the full noisy table: make sim-grasp)."""
+    from whisker.sim import load_scene
+
+    s = load_scene(ROOT / "software" / "whisker" / "sim" / "scenes" / "grasp.toml")
+    s = s.with_(experiment={**s.experiment.model_dump(), "placement_noise": 0.0, "yaw_noise": 0.0})
+    cfgs = paper.configurations(s, D)
+    assert [len(c) for c in cfgs] == [8, 4, 2]
+    held = {o.name: [paper.grasp_attempt(s, D, o, c, np.random.default_rng(0), body=BODY).success for c in cfgs]
+            for o in s.objects if o.name in ("paper flower", "mini pinecone", "foam ball")}
+    for name, h in held.items():
+        assert h[0] and (h[0] >= h[1] >= h[2]), (name, h)
+    assert not held["paper flower"][2] and not held["mini pinecone"][2]     # two tips drop the heavy ones
 
 
 @pytest.mark.parametrize("case", ["zero_friction", "stiff", "tiny_mass"])
