@@ -197,3 +197,13 @@ def test_supply_above_logic_range_keeps_module_regulators():
     assert "keep the 5V-EN jumper fitted" in pinout.pinout_markdown(d)
     assert "Cautions" not in pinout.pinout_markdown(d)
     assert "Cautions" in pinout.pinout_markdown(default_design())  # 5 V: below VIH + 2.5 V
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")  # kinparse uses pyparsing's old camelCase names
+def test_committed_netlist_parses_as_kicad_and_matches_the_circuit(default_board):
+    kinparse = pytest.importorskip("kinparse", reason="kinparse (KiCad netlist parser) not installed")
+    nl = kinparse.parse_netlist((GENERATED / "driver.net").read_text())
+    assert {p.ref for p in nl.parts} == set(default_board.parts)
+    parsed = {n.name: {(p.ref, p.num) for p in n.pins} for n in nl.nets}
+    built = {name: _net_pins(net) for name, net in default_board.nets.items()}
+    assert parsed == built
