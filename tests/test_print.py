@@ -393,3 +393,16 @@ def test_assembly_has_every_whiskers_rod_coil_and_magnet(default_build):
     centres = [np.degrees(np.arctan2(m.centroid[1], m.centroid[0])) for m, _ in rods]
     for want in d.whisker_angles_deg:  # every whisker angle has a rod (angular distance, wraps at 360)
         assert min(abs((c - want + 180) % 360 - 180) for c in centres) < 0.5
+
+
+def test_a_part_that_needs_supports_is_sliced_with_them(tmp_path):
+    slicer, admesh = tools()
+    mushroom = trimesh.boolean.union([_box([-3, -3, 0], [3, 3, 6]), _box([-12, -12, 6], [12, 12, 8])],
+                                     engine="manifold")
+    stl = tmp_path / "mushroom.stl"
+    mushroom.export(stl)
+    res = pc.check_part("mushroom", stl, load_profile(PROFILE), tmp_path / "m.gcode", slicer, admesh, coarse=True)
+    assert res.ok, res.reasons
+    assert res.supports and res.overhang["largest_unbridgeable"]["extent_mm"] == [24.0, 24.0]
+    assert res.gcode["support_material"]  # the slicer did generate support under the cap
+    assert "supports yes" in res.line()
