@@ -66,9 +66,10 @@ def test_quantities_follow_the_whisker_count(boms):
     assert boms[8]["magnet_wire"].value == pytest.approx(8 / 6 * boms[6]["magnet_wire"].value, abs=0.11)
     assert "pwm_expander" not in boms[6] and "pwm_expander" not in boms[8]
     assert boms[12]["pwm_expander"].value == 2  # 24 channels on 16-channel boards
-    # Direct GPIO: 2 signal jumpers per coil + 1 GND per module; expander adds its 4 bus wires.
-    assert boms[6]["jumpers"].value == 2 * 6 + 3
-    assert boms[12]["jumpers"].value == 4 + 2 * 12 + 6
+    # 2 signal jumpers per coil + 1 Pi GND to the supply; the expander adds 4 bus wires per board.
+    assert boms[6]["jumpers"].value == 2 * 6 + 1
+    assert boms[8]["jumpers"].value == 2 * 8 + 1
+    assert boms[12]["jumpers"].value == 2 * 12 + 1 + 4 * 2
     # Supply current bound scales with N.
     assert "at least 5 A" in boms[6]["coil_supply"].specification
     assert "at least 9 A" in boms[12]["coil_supply"].specification
@@ -112,7 +113,7 @@ def test_bom_rows_identities(n, scale, wire):
     b = _by_item(bom_rows(d, _fake_volumes(scale), CoilWire(wire, "test")))
     assert b["rod"].value == b["coil"].value == b["magnet"].value == n
     assert b["h_bridge"].value == math.ceil(n / 2)
-    assert b["jumpers"].value == 2 * n + math.ceil(n / 2)
+    assert b["jumpers"].value == 2 * n + 1 + (2 if n % 2 else 0)  # odd: spare IN3/IN4 to GND
     for r in b.values():
         assert math.isfinite(r.value) and r.value >= 0 and "\n" not in r.notes
 

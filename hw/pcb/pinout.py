@@ -67,6 +67,9 @@ def pinout_markdown(design: Design) -> str:
               "- supply GND -> every module's GND, the LED strip - and a Pi GND pin (header pin 6): "
               "the Pi's outputs need the common ground.",
               "- the Pi runs from its own USB-C supply; header 5V pins stay unconnected."]
+    if n % 2:
+        lines += [f"- the spare channel B of U{modules_needed(n)}: jumper IN3 and IN4 to Pi GND pins, "
+                  "leave OUT3/OUT4 open."]
     if expander:
         lines += ["- PCA9685: VCC <- Pi 3V3 (header pin 1), GND <- GND, SDA <- GPIO2 (pin 3), "
                   "SCL <- GPIO3 (pin 5), /OE <- GND, V+ unconnected; set address jumpers per board."]

@@ -376,15 +376,15 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         f"{n} coils x {d.driver.supply_voltage:g} V / {c.resistance:g} ohm = {amps:.2f} A at 100 % duty "
         "(upper bound) plus the LED strip; share its GND with the Pi")
 
-    gpio_wires = sum(2 + (ch.enable is not None) for ch in channels if ch.bus == "gpio")
-    if expander:
-        jumpers = 4 + 2 * n + modules  # Pi->PCA9685 (3V3, GND, SDA, SCL), PCA->IN, GND per module
-    else:
-        jumpers = gpio_wires + modules  # IN1/IN2 per coil + one GND per module
+    signal = sum(2 + (ch.enable is not None) for ch in channels)  # source -> IN (and EN) per coil
+    spare = 2 if n % 2 else 0  # IN3/IN4 of a half-used module tied to a Pi GND pin (as in the netlist)
+    bus = 4 * expander_boards_needed(n) if expander else 0  # 3V3, GND, SDA, SCL per PCA9685 board
+    jumpers = signal + 1 + spare + bus  # + one Pi GND -> supply GND (the common ground)
     add("jumpers", "buy", "female-female jumper wires", _num(jumpers), "pcs",
         "2.54 mm Dupont, 20 cm", "any",
-        "from the pin map (hw/pcb/generated/pinout.md): 2 per coil + 1 GND per module"
-        + (" + 4 for the PCA9685 (3V3, GND, SDA, SCL)" if expander else ""))
+        f"from the pin map (hw/pcb/generated/pinout.md): {signal} signal + 1 Pi GND to the supply GND"
+        + (f" + {spare} tying the spare IN3/IN4 to GND" if spare else "")
+        + (f" + {bus} for the PCA9685 bus (3V3, GND, SDA, SCL per board)" if bus else ""))
     add("power_wire", "buy", "power wire supply -> modules", _num(2 * modules), "pcs",
         "22 AWG stranded, red/black", "any", "+5 V and GND to each module's screw terminals")
 
