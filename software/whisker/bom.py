@@ -386,7 +386,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         + (f" + {spare} tying the spare IN3/IN4 to GND" if spare else "")
         + (f" + {bus} for the PCA9685 bus (3V3, GND, SDA, SCL per board)" if bus else ""))
     add("power_wire", "buy", "power wire supply -> modules", _num(2 * modules), "pcs",
-        "22 AWG stranded, red/black", "any", "+5 V and GND to each module's screw terminals")
+        "22 AWG stranded, red/black", "any", f"+{vs:g} V and GND to each module's screw terminals")
 
     mt = d.mount
     add("m3_screw", "buy", "M3 screws for the robot adapter", _num(mt.mounting_hole_count), "pcs",
