@@ -406,3 +406,26 @@ def test_a_part_that_needs_supports_is_sliced_with_them(tmp_path):
     assert res.supports and res.overhang["largest_unbridgeable"]["extent_mm"] == [24.0, 24.0]
     assert res.gcode["support_material"]  # the slicer did generate support under the cap
     assert "supports yes" in res.line()
+
+
+def test_check_exports_reports_a_missing_stl_and_removes_stale_gcode(default_build, tmp_path):
+    tools()
+    out = tmp_path / "exports"
+    out.mkdir()
+    manifest = load_manifest(default_build)
+    keep = {"mold_lid"}
+    for name in list(manifest["parts"]):
+        if manifest["parts"][name].get("printable") and name not in keep | {"mold_base"}:
+            manifest["parts"][name]["printable"] = False  # only two parts, to stay quick
+    shutil.copy(default_build / "mold_lid.stl", out / "mold_lid.stl")
+    manifest["parts"]["mold_base"]["files"] = {}  # a build without STL for this part
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    (out / "gcode").mkdir()
+    (out / "gcode" / "mold_base.gcode").write_text("; stale\n")
+    report = pc.check_exports(default_design(), out, coarse=True)
+    assert report["parts"]["mold_lid"]["ok"] and not report["summary"]["all_ok"]
+    assert report["parts"]["mold_base"]["reasons"] == ["no STL in the build (build with STL)"]
+    assert not (out / "gcode" / "mold_base.gcode").exists()
+    written = load_manifest(out)
+    assert written["print"]["printable"] == 1 and written["parts"]["mold_base"]["print"]["ok"] is False
+    assert "FAILED: no STL" in (out / "print_report.md").read_text()

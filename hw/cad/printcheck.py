@@ -400,8 +400,12 @@ def check_exports(design: Design, out: str | Path, coarse: bool = False, keep_gc
         if not part.get("printable"):
             continue
         say(f"checking and slicing {name}")
-        results.append(check_part(name, out / part["files"]["stl"], profile, gdir / f"{name}.gcode",
-                                  slicer, admesh, coarse))
+        (gdir / f"{name}.gcode").unlink(missing_ok=True)  # never leave an older run's G-code beside a failure
+        stl = part.get("files", {}).get("stl")
+        if stl is None:
+            results.append(PartPrint(name=name, stl="", ok=False, reasons=["no STL in the build (build with STL)"]))
+            continue
+        results.append(check_part(name, out / stl, profile, gdir / f"{name}.gcode", slicer, admesh, coarse))
         if not keep_gcode:
             (gdir / f"{name}.gcode").unlink(missing_ok=True)
     summary = summarise(results)
