@@ -186,11 +186,13 @@ def _box(lo, hi):
 def test_overhang_check_wants_supports_under_a_wide_ceiling_only():
     bed = _box([0, 0, 0], [20, 20, 5])
     assert pc.overhangs(bed, 45.0)["area_mm2"] == 0  # the bottom lies on the bed
+    assert pc.bed_contact_mm2(bed) == pytest.approx(400.0)
     mushroom = trimesh.boolean.union([_box([8, 8, 0], [12, 12, 10]), _box([-10, -10, 10], [30, 30, 13])],
                                      engine="manifold")
     oh = pc.overhangs(mushroom, 45.0)
     assert oh["needs_supports"] and oh["largest_unbridgeable"]["z_mm"] == pytest.approx(10.0)
     assert oh["area_mm2"] == pytest.approx(40 * 40 - 16, rel=1e-6)
+    assert pc.bed_contact_mm2(mushroom) == pytest.approx(16.0)  # only the stem touches the bed
     # A narrow ledge (3 mm) is bridged/overhung without supports.
     ledge = trimesh.boolean.union([_box([0, 0, 0], [20, 20, 10]), _box([-3, 0, 10], [20, 20, 13])], engine="manifold")
     assert not pc.overhangs(ledge, 45.0)["needs_supports"]

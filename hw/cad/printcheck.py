@@ -149,6 +149,7 @@ class PartPrint:
     admesh: dict = field(default_factory=dict)
     overhang: dict = field(default_factory=dict)
     supports: bool = False
+    bed_contact_mm2: float = 0.0
     gcode: dict = field(default_factory=dict)
     coarse: bool = False
     slice_s: float = 0.0
@@ -226,6 +227,14 @@ def overhangs(mesh: trimesh.Trimesh, threshold_deg: float, bed_z: float = 0.0, f
     return result
 
 
+def bed_contact_mm2(mesh: trimesh.Trimesh, first_layer: float = 0.2) -> float:
+    """Area of the downward faces lying on the bed (the first layer's footprint), mm^2.
+    A small footprint on a tall part warns of poor adhesion; the report lists it."""
+    z0 = float(mesh.bounds[0, 2])
+    on_bed = (mesh.triangles[:, :, 2].max(axis=1) <= z0 + first_layer / 2) & (mesh.face_normals[:, 2] < -0.99)
+    return round(float(mesh.area_faces[on_bed].sum()), 2)
+
+
 def _run(cmd: list[str], timeout: float = SLICE_TIMEOUT_S) -> subprocess.CompletedProcess:
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
 
@@ -269,6 +278,7 @@ def check_part(name: str, stl: Path, profile: PrinterProfile, gcode_out: Path, s
     res.overhang = overhangs(mesh, profile.support_threshold_deg, float(mesh.bounds[0, 2]),
                              profile.first_layer_height)
     res.supports = bool(res.overhang["needs_supports"])
+    res.bed_contact_mm2 = bed_contact_mm2(mesh, profile.first_layer_height)
     if not res.ok:
         return res  # a broken or oversized mesh is not sliced: its numbers would mean nothing
 
@@ -338,8 +348,9 @@ def report_markdown(design: Design, profile: PrinterProfile, results: list[PartP
     if coarse:
         lines += ["**Coarse slicing** (0.3 mm layers, 1 perimeter, no infill): the parts slice, but the times "
                   "and grams below are NOT estimates of a real print.", ""]
-    lines += ["| part | size x y z (mm) | layers | print time | filament (g) | supports | overhang check | result |",
-              "|---|---|---|---|---|---|---|---|"]
+    lines += ["| part | size x y z (mm) | on bed (mm^2) | layers | print time | filament (g) | supports | "
+              "overhang check | result |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         g, oh = r.gcode, r.overhang
         worst = oh.get("largest_unbridgeable") if oh else None
@@ -351,7 +362,7 @@ def report_markdown(design: Design, profile: PrinterProfile, results: list[PartP
         t = fmt_duration(g["time_s"]) if "time_s" in g else "-"
         grams = f"{g['filament_g']:.2f}" if "filament_g" in g else "-"
         result = "ok" if r.ok else "FAILED: " + "; ".join(r.reasons)
-        lines.append(f"| {r.name} | {size} | {g.get('layers', '-')} | {t} | {grams} | {sup} | {ohs} | {result} |")
+        lines.append(f"| {r.name} | {size} | {r.bed_contact_mm2:.0f} | {g.get('layers', '-')} | {t} | {grams} | {sup} | {ohs} | {result} |")
     lines += ["", f"**Whole sensor: {fmt_duration(summary['total_time_s'])} of printing, "
                   f"{summary['total_filament_g']:.1f} g of filament "
                   f"({summary['total_filament_mm'] / 1000:.2f} m)** for {', '.join(summary['sensor_parts'])}"
