@@ -1,0 +1,210 @@
+"""Classification benchmark: the paper's MLP on the authors' real data, honestly evaluated, and what
+accuracy costs in time.
+
+Needs the authors' data through WHISKER_PEER_DATA (skips with a message otherwise).
+
+1. Protocols: the paper's configuration (32 ReLU, Adam lr 0.01, 10 epochs, batch 16, inputs / 229,
+   7:3) under every split protocol of whisker.classify, on the paper's 5 objects and on all 10,
+   mean +- sample std over 10 seeds (seed = split and initialisation), next to the paper's 99.17 %.
+   The summed confusion matrices of the headline protocols go to docs/images/confusion_*.png.
+2. Cost: hidden size x epochs against accuracy and training time (protocol "trial": whole trials
+   held out, no rotation; and four points with rotation augmentation, "trial+rot"), 10 objects,
+   3 seeds each.
+3. Other models side by side on the same leak-free splits (principle 1): 1-nearest-neighbour,
+   logistic regression, the paper's MLP and a larger MLP; fit time and inference time per sample
+   (best of 5: one batch of all test samples / n, and one single-sample call).
+
+Writes benchmarks/results/classify.md, classify.csv (the cost grid), classify_protocols.csv,
+classify_confusion.json (summed confusion matrices), classify_models.csv and classify.png.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import numpy as np  # noqa: E402
+
+from common import best_time_s, machine_line, markdown_table, save_figure, write_csv, write_text  # noqa: E402
+from whisker import classify as C  # noqa: E402
+from whisker.dataset import PAPER_OBJECTS, load_peer  # noqa: E402
+
+DOCS_IMAGES = Path(__file__).resolve().parents[1] / "docs" / "images"
+SEEDS = range(10)
+GRID_SEEDS = range(3)
+HIDDEN = [8, 16, 32, 64, 128]
+EPOCHS = [5, 10, 20, 40]
+ROT_GRID = [(8, 10), (32, 10), (128, 10), (32, 40)]
+
+
+def protocol_table(peer):
+    rows, summaries = [], {}
+    for label, ds in (("paper's 5", peer.select(PAPER_OBJECTS)), ("all 10", peer)):
+        s = C.summarize(C.study(ds, C.PROTOCOLS, SEEDS, progress=True))
+        summaries[label] = s
+        for p, v in s.items():
+            rows.append({"objects": label, "protocol": p, "accuracy_mean_pct": 100 * v["accuracy_mean"],
+                         "accuracy_std_pct": 100 * v["accuracy_std"], "accuracy_min_pct": 100 * v["accuracy_min"],
+                         "n_train": v["n_train"], "n_test": v["n_test"], "train_s": v["train_s_mean"]})
+    return rows, summaries
+
+
+def cost_grid(peer):
+    rows = []
+    jobs = [("trial", h, e) for h in HIDDEN for e in EPOCHS] + [("trial+rot", h, e) for h, e in ROT_GRID]
+    from tqdm import tqdm
+
+    for protocol, h, e in tqdm(jobs, desc="cost grid", unit="config"):
+        rs = [C.run(peer, protocol, s, hidden=h, epochs=e) for s in GRID_SEEDS]
+        acc = np.array([r.accuracy for r in rs])
+        rows.append({"protocol": protocol, "hidden": h, "epochs": e, "accuracy_mean_pct": 100 * acc.mean(),
+                     "accuracy_std_pct": 100 * acc.std(ddof=1), "train_s": float(np.mean([r.train_s for r in rs])),
+                     "predict_us_per_sample": 1e6 * float(np.mean([r.predict_s_per_sample for r in rs])),
+                     "n_train": rs[0].n_train})
+    return rows
+
+
+def model_table(peer):
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.neighbors import KNeighborsClassifier
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import FunctionTransformer
+
+    scale = FunctionTransformer(C._scale, kw_args={"scale": C.PEER_SCALE})
+    models = {
+        "1-nearest-neighbour": lambda s: make_pipeline(scale, KNeighborsClassifier(1)),
+        "logistic regression": lambda s: make_pipeline(scale, LogisticRegression(max_iter=2000, C=10.0)),
+        "MLP 32, 10 epochs (paper)": lambda s: C.make_classifier(seed=s),
+        "MLP 128, 40 epochs": lambda s: C.make_classifier(hidden=128, epochs=40, seed=s),
+    }
+    rows = []
+    for protocol in ("random", "trial", "pose"):
+        for name, make in models.items():
+            acc, fit_s, batch_us, single_us = [], [], [], []
+            for seed in range(5):
+                train, test = C.split(peer, protocol, seed)
+                m = make(seed)
+                t = time.perf_counter()
+                C.fit_quiet(m, train.features(), train.y)
+                fit_s.append(time.perf_counter() - t)
+                acc.append(np.mean(m.predict(test.features()) == test.y))
+                if seed == 0:
+                    Xt = test.features()
+                    batch_us.append(1e6 * best_time_s(lambda: m.predict(Xt)) / len(Xt))
+                    single_us.append(1e6 * best_time_s(lambda: m.predict(Xt[:1]), number=20))
+            rows.append({"protocol": protocol, "model": name, "accuracy_mean_pct": 100 * np.mean(acc),
+                         "accuracy_std_pct": 100 * np.std(acc, ddof=1), "fit_s": float(np.mean(fit_s)),
+                         "batch_us_per_sample": batch_us[0], "single_call_us": single_us[0]})
+    return rows
+
+
+def plot(grid, prot_rows):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.6))
+    for protocol, marker in (("trial", "o"), ("trial+rot", "s")):
+        for e in sorted({r["epochs"] for r in grid}):
+            pts = [r for r in grid if r["protocol"] == protocol and r["epochs"] == e]
+            if not pts:
+                continue
+            a.errorbar([r["train_s"] for r in pts], [r["accuracy_mean_pct"] for r in pts],
+                       yerr=[r["accuracy_std_pct"] for r in pts], marker=marker, ls="-", capsize=2,
+                       label=f"{protocol}, {e} epochs")
+            for r in pts:
+                a.annotate(str(r["hidden"]), (r["train_s"], r["accuracy_mean_pct"]), fontsize=6,
+                           xytext=(2, 2), textcoords="offset points")
+    a.set_xscale("log")
+    a.set_xlabel("training time per fit (s, log)")
+    a.set_ylabel("test accuracy (%), 10 objects")
+    a.set_title("cost: hidden units (labels) x epochs, whole trials held out", fontsize=9)
+    a.legend(fontsize=7)
+    a.grid(alpha=0.3)
+    labels = list(C.PROTOCOLS)
+    x = np.arange(len(labels))
+    for i, obj in enumerate(("paper's 5", "all 10")):
+        rs = {r["protocol"]: r for r in prot_rows if r["objects"] == obj}
+        b.bar(x + (i - 0.5) * 0.38, [rs[p]["accuracy_mean_pct"] for p in labels], 0.38,
+              yerr=[rs[p]["accuracy_std_pct"] for p in labels], capsize=2, label=obj)
+    b.axhline(100 * C.PAPER_ACCURACY, color="k", ls="--", lw=1, label="paper 99.17 %")
+    b.set_xticks(x, labels, rotation=20)
+    b.set_ylim(40, 101)
+    b.set_ylabel("test accuracy (%), mean +- std, 10 seeds")
+    b.set_title("the paper's MLP under each split protocol", fontsize=9)
+    b.legend(fontsize=7, loc="lower left")
+    b.grid(alpha=0.3, axis="y")
+    fig.tight_layout()
+    save_figure(fig, "classify.png")
+    plt.close(fig)
+
+
+def main() -> int:
+    data = os.environ.get("WHISKER_PEER_DATA")
+    if not data or not Path(data).is_dir():
+        print("bench_classify: skipped, WHISKER_PEER_DATA is not set (the authors' data is not in the repository)")
+        return 0
+    peer = load_peer(data)
+    t0 = time.perf_counter()
+    prot_rows, summaries = protocol_table(peer)
+    write_csv("classify_protocols.csv", prot_rows)
+    from common import RESULTS
+    from whisker.files import atomic_write_json
+
+    atomic_write_json(RESULTS / "classify_confusion.json", summaries)
+    print(markdown_table(prot_rows, ["objects", "protocol", "accuracy_mean_pct", "accuracy_std_pct", "n_train",
+                                     "n_test"], {"accuracy_mean_pct": ".2f", "accuracy_std_pct": ".2f"}), flush=True)
+    for obj, tag in (("paper's 5", "paper5"), ("all 10", "all10")):
+        for p in ("paper", "random", "trial+rot", "pose"):
+            v = summaries[obj][p]
+            C.plot_confusion(v["confusion"], v["classes"], DOCS_IMAGES / f"confusion_{tag}_{p.replace('+', '_')}.png",
+                             f"{obj} objects, protocol {p}: {100 * v['accuracy_mean']:.1f} +- "
+                             f"{100 * v['accuracy_std']:.1f} % ({len(SEEDS)} seeds summed)")
+    grid = cost_grid(peer)
+    write_csv("classify.csv", grid)
+    models = model_table(peer)
+    write_csv("classify_models.csv", models)
+    plot(grid, prot_rows)
+    f1 = {"accuracy_mean_pct": ".2f", "accuracy_std_pct": ".2f", "accuracy_min_pct": ".2f", "train_s": ".2f",
+          "predict_us_per_sample": ".1f", "fit_s": ".2f", "batch_us_per_sample": ".1f", "single_call_us": ".0f"}
+    paper_cfg = [r for r in grid if r["protocol"] == "trial" and r["hidden"] == 32 and r["epochs"] == 10][0]
+    text = f"""# Classification benchmark (the authors' real data)
+
+Machine: {machine_line()}; whole run {time.perf_counter() - t0:.0f} s. Data: {peer.source}
+(10 objects x 180 samples x 8 records x 8 whiskers x (dx, dy) px). Model: scikit-learn MLPClassifier,
+the paper's configuration unless stated (32 ReLU, Adam lr 0.01, 10 epochs, batch 16, inputs / 229).
+Protocols: see docs/classification.md. The paper reports 99.17 % on its 5 objects.
+
+## 1. Accuracy under each split protocol ({len(SEEDS)} seeds, mean +- sample std)
+
+{markdown_table(prot_rows, ["objects", "protocol", "accuracy_mean_pct", "accuracy_std_pct", "accuracy_min_pct", "n_train", "n_test", "train_s"], f1)}
+
+## 2. What accuracy costs: hidden units x epochs (10 objects, {len(GRID_SEEDS)} seeds)
+
+Training time is per fit on this machine (shared, 2 cores); inference is per sample in one batch.
+The paper's configuration (32 units, 10 epochs), whole trials held out: {paper_cfg['accuracy_mean_pct']:.1f} %
+in {paper_cfg['train_s']:.2f} s.
+
+{markdown_table(grid, ["protocol", "hidden", "epochs", "accuracy_mean_pct", "accuracy_std_pct", "train_s", "predict_us_per_sample", "n_train"], f1)}
+
+## 3. Other models on the same splits (10 objects, 5 seeds)
+
+Inference: `batch_us_per_sample` = best-of-5 time of predicting all test samples at once / n;
+`single_call_us` = one sample per call (scikit-learn's per-call overhead dominates).
+
+{markdown_table(models, ["protocol", "model", "accuracy_mean_pct", "accuracy_std_pct", "fit_s", "batch_us_per_sample", "single_call_us"], f1)}
+
+![accuracy vs cost, protocols](classify.png)
+"""
+    write_text("classify.md", text)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
