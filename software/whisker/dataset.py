@@ -28,9 +28,10 @@ The authors' data (verified, see docs/classification.md for the evidence)
 
 - (dx, dy) are interleaved per whisker: |column 2k| correlates with |column 2k+1| (median r = 0.39)
   but not with |column k+8| (r = 0.04) inside each 16-column record.
-- 8 records = 4 approach directions x 2 distances, direction-major: records 2d and 2d+1 share the
-  same mean displacement direction (about 55, -22, -118/-17, 129/149 deg) and the odd record of each
-  pair moves about 4x more (the 1 cm approach; the even one is the 3 cm approach).
+- 8 records = 4 approach directions x 2 distances, direction-major: the odd record of each pair
+  moves 2.5-5x more (mean |d| 4.0-5.2 px vs 0.9-2.1 px: the 1 cm approach; the even one is 3 cm); the
+  near records' resultant directions (53, -22, -118, 149 deg) are roughly 90 deg apart, and the far
+  record points the same way for 3 of 4 directions (in the other it barely moves).
 - rows are 5 repeated cycles x 36 steps (trial-major, ``row = 36 * trial + pose``): the mean distance
   between rows ``lag`` apart has its minimum at lag 36 for 9 of 10 objects (pinecone: no structure),
   and the 2-fold symmetric objects (yuanbao, lemon, eraser) show a second dip at lag 18, as expected
