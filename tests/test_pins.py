@@ -87,3 +87,13 @@ def test_supply_warnings_follow_the_l298_datasheet():
     assert supply_warnings(default_design('driver.type="TB6612FNG"')) == []
     assert not module_makes_own_logic_supply(default_design("driver.supply_voltage=7.0"))
     assert module_makes_own_logic_supply(default_design("driver.supply_voltage=7.5"))
+
+
+def test_header_table_is_complete_and_consistent():
+    from whisker.pins import HEADER_POWER
+
+    assert sorted(HEADER_PIN) == list(range(28))  # BCM 0..27
+    phys = sorted([*HEADER_PIN.values(), *HEADER_POWER])
+    assert phys == list(range(1, 41))  # every header pin exactly once
+    assert [p for p, k in HEADER_POWER.items() if k == "GND"] == [6, 9, 14, 20, 25, 30, 34, 39]
+    assert (HEADER_PIN[2], HEADER_PIN[3], HEADER_PIN[14], HEADER_PIN[15]) == (3, 5, 8, 10)
