@@ -253,7 +253,7 @@ def save_model(path, model, ds: WhiskerDataset, info: dict) -> Path:
 
     from whisker.files import atomic_write_bytes
 
-    bundle = {"format": MODEL_FORMAT, "model": model, "classes": list(model.classes_),
+    bundle = {"format": MODEL_FORMAT, "model": model, "classes": [str(c) for c in model.classes_],
               "n_records": ds.n_records, "n_whiskers": ds.n_whiskers, "sense": ds.sense,
               "versions": versions(), **info}
     buf = io.BytesIO()
@@ -307,4 +307,4 @@ def check_labels(bundle: dict, labels) -> None:
     """Labels of an evaluation set must be classes the model knows."""
     unknown = sorted(set(np.asarray(labels, str).tolist()) - set(bundle["classes"]))
     if unknown:
-        raise DatasetError(f"unknown label(s) {unknown}; the model knows {bundle['classes']}")
+        raise DatasetError(f"unknown label(s) {unknown}; the model knows {[str(c) for c in bundle['classes']]}")

@@ -17,9 +17,9 @@ PROTOCOL_HELP = ("paper = rotate then split (the paper); random = 7:3 split of t
 
 def _data_option(f):
     return click.option("--data", "data", type=click.Path(file_okay=False), default=None,
-                        help="Dataset folder of <object>.csv files (the authors' objCls folder, a "
-                             "simulated dataset, or `whisker classify` exports). Default: "
-                             "$WHISKER_PEER_DATA.")(f)
+                        help="Dataset folder of <object>.csv files: the authors' objCls folder (or its "
+                             "parent), a simulated dataset, or one written by "
+                             "whisker.dataset.write_csv_folder. Default: $WHISKER_PEER_DATA.")(f)
 
 
 def _objects_option(f):
@@ -68,10 +68,10 @@ def cli():
 @_data_option
 @_objects_option
 @_mlp_options
-@click.option("--protocol", default="trial+rot", show_default=True, help=PROTOCOL_HELP)
+@click.option("--protocol", default="trial", show_default=True, help=PROTOCOL_HELP)
 @click.option("--seed", default=0, show_default=True, type=int, help="Split and initialisation seed.")
-@click.option("--all-data", is_flag=True, help="Train on every sample (plus rotations unless --protocol random) "
-                                               "with no test split.")
+@click.option("--all-data", is_flag=True, help="Train on every sample with no test split (plus the rotated "
+                                               "copies if the protocol is 'paper' or ends in '+rot').")
 @click.option("--out", "out", type=click.Path(dir_okay=False), required=True, help="Model file to write (.joblib).")
 @click.option("--report", type=click.Path(file_okay=False), default=None,
               help="Folder for the per-class report (report.txt, metrics.json) and confusion.png.")
@@ -87,7 +87,10 @@ def train(design, data, objects, hidden, epochs, lr, batch_size, protocol, seed,
     params = dict(hidden=hidden, epochs=epochs, lr=lr, batch_size=batch_size, scale=ds.meta.get("scale") or C.PEER_SCALE)
     try:
         if all_data:
-            train_ds, test_ds = (ds if protocol == "random" else augment_rotations(ds)), None
+            if protocol not in C.PROTOCOLS:
+                raise ValueError(f"unknown protocol {protocol!r}; choose from {', '.join(C.PROTOCOLS)}")
+            rotated = protocol == "paper" or protocol.endswith("+rot")
+            train_ds, test_ds = (augment_rotations(ds) if rotated else ds), None
         else:
             train_ds, test_ds = C.split(ds, protocol, seed)
         model = C.fit_quiet(C.make_classifier(seed=seed, **params), train_ds.features(), train_ds.y)
