@@ -125,18 +125,24 @@ def test_csv_folder_refusals(tmp_path):
 
 
 # -- tracks loader -------------------------------------------------------------------------------------------
-HEADER = "frame,time,whisker,x_px,y_px,dx_px,dy_px,valid,theta_deg,tip_x_mm,tip_y_mm,tip_z_mm\n"
-
-
 def write_tracks(path, frames=4, W=8, sense=1, invalid=()):
+    """A tracks CSV in `whisker track`'s own format (its header; an untracked marker's numbers empty)."""
+    from whisker.commands.track import CSV_HEADER
+
+    cols = CSV_HEADER.split(",")
     pos = ring(W, sense) + 240
-    lines = [HEADER]
+    lines = [CSV_HEADER + "\n"]
     for f in range(frames):
         for w in range(W):
             ok = (f, w) not in invalid
             dx, dy = (f + 1) * 0.5 * (w + 1), -f * 0.25
-            lines.append(f"{f},{f / 30:.4f},{w},{pos[w, 0] + dx:.3f},{pos[w, 1] + dy:.3f},"
-                         f"{dx if ok else 'nan'},{dy if ok else 'nan'},{int(ok)},0.1,0,0,20\n")
+            row = {"frame": f, "time_s": f"{f / 30:.4f}", "whisker": w, "x_px": f"{pos[w, 0] + dx:.3f}",
+                   "y_px": f"{pos[w, 1] + dy:.3f}", "dx_px": dx, "dy_px": dy, "valid": 1, "status": "ok",
+                   "theta_deg": 0.1, "tip_x_mm": 0, "tip_y_mm": 0, "tip_z_mm": 20}
+            if not ok:
+                row.update(x_px="", y_px="", dx_px="", dy_px="", valid=0, status="lost", theta_deg="",
+                           tip_x_mm="", tip_y_mm="", tip_z_mm="")
+            lines.append(",".join(str(row[c]) for c in cols) + "\n")
     path.write_text("".join(lines))
     return path
 
@@ -167,6 +173,31 @@ def test_tracks_invalid_whiskers(tmp_path):
         load_tracks(tmp_path / "bad.csv", "cup")
     with pytest.raises(DatasetError, match="invalid='maybe'"):
         load_tracks(p, "cup", invalid="maybe")
+
+
+def test_pose_major_folder_and_design_defaults(tmp_path):
+    from whisker.dataset import design_sense
+    from whisker.design import default_design
+
+    ds = synthetic(n_obj=2, trials=3, poses=4, R=1, W=6)
+    for c in ds.classes:  # the simulator's order: rotations (poses) x trials, pose-major
+        sub = ds.subset(ds.y == c)
+        order = np.lexsort((sub.trial, sub.pose))
+        (tmp_path / f"{c}.csv").write_text("\n".join(",".join(f"{v:.6g}" for v in r) for r in sub.features()[order]))
+    (tmp_path / "dataset.json").write_text(json.dumps({"trials_per_pose": 3}))
+    six = default_design("whiskers.count=6", "whiskers.ring_radius=10")
+    back = load_csv_folder(tmp_path, design=six)
+    assert back.n_whiskers == 6 and back.n_records == 1
+    assert back.sense == design_sense(six) and design_sense(default_design()) in (1, -1)
+    assert back.trial[:6].tolist() == [0, 1, 2, 0, 1, 2] and back.pose[:6].tolist() == [0, 0, 0, 1, 1, 1]
+    np.testing.assert_allclose(back.X[back.y == "obj0"][4], ds.X[(ds.y == "obj0") & (ds.trial == 1) & (ds.pose == 1)][0],
+                               rtol=1e-5, atol=1e-4)
+    (tmp_path / "dataset.json").write_text(json.dumps({"trials_per_pose": 3, "trial_length": 4}))
+    with pytest.raises(DatasetError, match="not both"):
+        load_csv_folder(tmp_path)
+    (tmp_path / "dataset.json").write_text("{oops")
+    with pytest.raises(DatasetError, match="not JSON"):
+        load_csv_folder(tmp_path)
 
 
 def test_design_whisker_count(tmp_path):

@@ -68,9 +68,10 @@ whiskerTrack.py ``curveFitCenterPtList`` after their ``rearrangeList`` (MIT lice
 PAPER_OBJECTS = ("cherry", "eraser", "lightbulb", "strawberry", "yuanbao")
 """The five objects of the conference paper (its Fig. 6); the CSV folder holds ten."""
 
-TRACKS_COLUMNS = ("frame", "time", "whisker", "x_px", "y_px", "dx_px", "dy_px", "valid",
-                  "theta_deg", "tip_x_mm", "tip_y_mm", "tip_z_mm")
-"""Columns of a tracks CSV written by `whisker track` (one row per frame and whisker)."""
+TRACKS_COLUMNS = ("frame", "whisker", "x_px", "y_px", "dx_px", "dy_px", "valid")
+"""Columns `load_tracks` needs from a tracks CSV written by `whisker track` (one row per frame and
+whisker; it also writes time_s, status, theta_deg and tip_*_mm, and leaves the numbers of an
+untracked marker empty)."""
 
 
 class DatasetError(ValueError):
@@ -317,25 +318,48 @@ def read_rows(path: Path) -> np.ndarray:
     return np.array(rows)
 
 
-def load_csv_folder(path: str | Path, *, objects: Iterable[str] | None = None, n_whiskers: int = 8,
-                    trial_length: int | None = None, sense: int | None = None) -> WhiskerDataset:
+def design_sense(design) -> int:
+    """Numbering sense of a design's markers in its camera image (rest positions through
+    `whisker.render.marker_pixels`)."""
+    from whisker.render import marker_pixels
+
+    a = np.radians(design.whisker_angles_deg)
+    r = design.whiskers.ring_radius
+    xyz = np.stack([r * np.cos(a), r * np.sin(a), np.full_like(a, design.marker_z)], axis=1)
+    return sense_from_positions(marker_pixels(design, xyz))
+
+
+def load_csv_folder(path: str | Path, *, objects: Iterable[str] | None = None, n_whiskers: int | None = None,
+                    trial_length: int | None = None, trials_per_pose: int | None = None,
+                    sense: int | None = None, design=None) -> WhiskerDataset:
     """A folder of ``<object>.csv`` files, one sample per row (the authors' layout, also used for
     simulated datasets).
 
-    Each row holds R records x ``n_whiskers`` x (dx, dy) interleaved, px. ``trial_length`` = rows
-    per physical trial (row = trial_length * trial + pose); if not given it is read from an
-    optional ``dataset.json`` in the folder (keys ``trial_length``, ``sense``, ``n_whiskers``),
-    otherwise trials are unknown (-1) and only the rotation-group split is leak-free.
+    Each row holds R records x ``n_whiskers`` x (dx, dy) interleaved, px. Row order, if known:
+    ``trial_length`` = rows per trial, trial-major (row = trial_length * trial + pose, the authors'
+    files), or ``trials_per_pose`` = repeats per pose, pose-major (row = trials_per_pose * pose +
+    trial, the simulator's rotations x trials). Arguments not given are read from an optional
+    ``dataset.json`` in the folder (keys ``n_whiskers``, ``sense``, ``trial_length``,
+    ``trials_per_pose``); then from ``design`` (whisker count, and the sense of its camera image);
+    else 8 whiskers, sense +1, trials unknown (-1: only the random splits apply).
     """
     path = Path(path)
     if not path.is_dir():
         raise DatasetError(f"{path}: not a folder of <object>.csv files")
     info = {}
     if (path / "dataset.json").is_file():
-        info = json.loads((path / "dataset.json").read_text())
-    n_whiskers = int(info.get("n_whiskers", n_whiskers))
+        try:
+            info = json.loads((path / "dataset.json").read_text())
+        except json.JSONDecodeError as err:
+            raise DatasetError(f"{path / 'dataset.json'}: not JSON ({err})") from None
+    if n_whiskers is None:
+        n_whiskers = int(info.get("n_whiskers", design.whiskers.count if design is not None else 8))
     trial_length = trial_length if trial_length is not None else info.get("trial_length")
-    sense = sense if sense is not None else int(info.get("sense", 1))
+    trials_per_pose = trials_per_pose if trials_per_pose is not None else info.get("trials_per_pose")
+    if trial_length and trials_per_pose:
+        raise DatasetError(f"{path}: give trial_length (trial-major rows) or trials_per_pose (pose-major), not both")
+    if sense is None:
+        sense = int(info["sense"]) if "sense" in info else (design_sense(design) if design is not None else 1)
     files = {p.stem: p for p in sorted(path.glob("*.csv"))}
     if not files:
         raise DatasetError(f"{path}: no .csv files")
@@ -357,12 +381,20 @@ def load_csv_folder(path: str | Path, *, objects: Iterable[str] | None = None, n
         i = np.arange(len(rows))
         Xs.append(X)
         ys.append(np.full(len(rows), name))
-        trials.append(i // trial_length if trial_length else np.full(len(rows), -1))
-        poses.append(i % trial_length if trial_length else np.full(len(rows), -1))
+        if trial_length:
+            trials.append(i // trial_length)
+            poses.append(i % trial_length)
+        elif trials_per_pose:
+            trials.append(i % trials_per_pose)
+            poses.append(i // trials_per_pose)
+        else:
+            trials.append(np.full(len(rows), -1))
+            poses.append(np.full(len(rows), -1))
     trial = np.concatenate(trials)
     return make_dataset(np.concatenate(Xs), np.concatenate(ys), trial=trial, pose=np.concatenate(poses),
                         sense=sense, source=str(path),
-                        meta={"trial_length": trial_length, "scale": info.get("scale")})
+                        meta={"trial_length": trial_length, "trials_per_pose": trials_per_pose,
+                              "scale": info.get("scale")})
 
 
 def load_peer(path: str | Path, objects: Iterable[str] | None = None) -> WhiskerDataset:
@@ -432,11 +464,10 @@ def load_tracks(paths: str | Path | Sequence[str | Path], label: str | Sequence[
         p = Path(p)
         with open(p, newline="") as fh:
             reader = csv.DictReader(fh)
-            missing = [c for c in ("frame", "whisker", "x_px", "y_px", "dx_px", "dy_px", "valid")
-                       if c not in (reader.fieldnames or [])]
+            missing = [c for c in TRACKS_COLUMNS if c not in (reader.fieldnames or [])]
             if missing:
-                raise DatasetError(f"{p}: missing column(s) {missing}; a tracks CSV from `whisker track` "
-                                   f"has {list(TRACKS_COLUMNS)}")
+                raise DatasetError(f"{p}: missing column(s) {missing}; need {list(TRACKS_COLUMNS)} "
+                                   "(a tracks CSV from `whisker track`)")
             rows = list(reader)
         if not rows:
             raise DatasetError(f"{p}: no rows")
@@ -483,10 +514,10 @@ def load_tracks(paths: str | Path | Sequence[str | Path], label: str | Sequence[
     return concat(parts)
 
 
-def load(path: str | Path, objects: Iterable[str] | None = None) -> WhiskerDataset:
+def load(path: str | Path, objects: Iterable[str] | None = None, design=None) -> WhiskerDataset:
     """Any supported source: the authors' folder (detected by its ``objCls`` name or its parent) or a
-    CSV folder with optional ``dataset.json``."""
+    CSV folder with optional ``dataset.json`` (whisker count and sense from ``design`` otherwise)."""
     path = Path(path)
     if path.name == "objCls" or (path / "objCls").is_dir():
         return load_peer(path, objects)
-    return load_csv_folder(path, objects=objects)
+    return load_csv_folder(path, objects=objects, design=design)

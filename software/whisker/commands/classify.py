@@ -50,7 +50,7 @@ def _load(data, objects, design):
     if objects:
         names = list(PAPER_OBJECTS) if objects == "paper" else [o.strip() for o in objects.split(",") if o.strip()]
     try:
-        ds = load(data, names)
+        ds = load(data, names, design)
         check_design(ds, design)
     except (DatasetError, OSError) as err:
         fail(f"dataset refused: {err}")
