@@ -267,3 +267,19 @@ def test_peer_has_no_rotated_copies(peer):
         for sense in (1, -1):
             rot = rotate(a.reshape(-1, 8, 8, 2), k, sense).reshape(len(a), -1)
             assert np.median(cdist(rot, a).min(axis=1)) > 3 * np.median(same.min(axis=1))
+
+
+def test_simulated_dataset_loads(tmp_path):
+    """The simulator's classification scene writes the authors' folder layout (contract between issues 8
+    and 9); one trial per sensor rotation keeps it to a few seconds."""
+    pytest.importorskip("whisker.sim", reason="the simulator (issue 8) is not installed")
+    from conftest import ROOT, run_cli
+    from whisker.design import default_design
+
+    scene = ROOT / "software" / "whisker" / "sim" / "scenes" / "classification.toml"
+    res = run_cli("sim", str(scene), "--trials", "1", "--out", str(tmp_path / "run"), "-q")
+    assert res.returncode == 0, res.stderr
+    ds = load_csv_folder(tmp_path / "run" / "dataset", trials_per_pose=1, design=default_design())
+    assert ds.X.shape[1:] == (8, 8, 2) and len(ds.classes) == 5
+    assert np.array_equal(ds.X, np.round(ds.X)) and np.abs(ds.X).max() > 0
+    assert ds.pose.max() == 5 and (ds.trial == 0).all()  # 6 sensor rotations, pose-major rows
