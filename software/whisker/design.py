@@ -405,12 +405,18 @@ def apply_overrides(data: dict[str, Any], overrides: Iterable[str]) -> dict[str,
     return out
 
 
-def _one_line(err: ValidationError) -> str:
+def one_line_errors(err: ValidationError) -> str:
+    """A pydantic ValidationError as one line: ``key.path: message (got value); ...``.
+
+    The offending input is shown unless it is a whole section (a dict), which would flood the line.
+    """
     msgs = []
     for e in err.errors():
         loc = ".".join(str(p) for p in e["loc"])
         msg = e["msg"].removeprefix("Value error, ")
-        msgs.append(f"{loc}: {msg} (got {e.get('input')!r})" if loc else msg)
+        inp = e.get("input")
+        shown = "" if isinstance(inp, dict) else f" (got {inp!r})"
+        msgs.append(f"{loc}: {msg}{shown}" if loc else msg)
     return "; ".join(msgs)
 
 
@@ -418,7 +424,7 @@ def design_from_dict(data: dict[str, Any]) -> Design:
     try:
         return Design.model_validate(data)
     except ValidationError as err:
-        raise DesignError(_one_line(err)) from None
+        raise DesignError(one_line_errors(err)) from None
 
 
 def load_design(path: str | Path | None = None, overrides: Iterable[str] = ()) -> Design:

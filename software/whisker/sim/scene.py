@@ -25,6 +25,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from whisker.design import one_line_errors
+
 try:  # Python >= 3.11
     import tomllib
 except ModuleNotFoundError:  # pragma: no cover - Python 3.10
@@ -329,22 +331,11 @@ class Scene(_S):
         return scene_from_dict(data)
 
 
-def _one_line(err: ValidationError) -> str:
-    msgs = []
-    for e in err.errors():
-        loc = ".".join(str(p) for p in e["loc"])
-        msg = e["msg"].removeprefix("Value error, ")
-        inp = e.get("input")
-        shown = "" if isinstance(inp, dict) else f" (got {inp!r})"
-        msgs.append(f"{loc}: {msg}{shown}" if loc else msg)
-    return "; ".join(msgs)
-
-
 def scene_from_dict(data: dict[str, Any]) -> Scene:
     try:
         return Scene.model_validate(data)
     except ValidationError as err:
-        raise SceneError(_one_line(err)) from None
+        raise SceneError(one_line_errors(err)) from None
 
 
 def load_scene(path: str | Path) -> Scene:
