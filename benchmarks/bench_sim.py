@@ -41,8 +41,9 @@ def bench_static(design, rows):
     from whisker.sim.contract import current_A
     from whisker.sim.kinematics import static_equilibrium, whisker_body
 
+    design = _full_scale(design, 1.0)                     # level 1 = 1 V at the coil
     body = whisker_body(design)
-    s = scene_from_dict({"actuation": {"voltage": 1.0, "schedule": [{"t": 0.0, "level": 1.0}]},
+    s = scene_from_dict({"actuation": {"schedule": [{"t": 0.0, "level": 1.0}]},
                          "sensor": {"facing": "down"}})
     p = plan(s, design)
     I = current_A(design, np.array([1.0]))
@@ -65,13 +66,23 @@ def bench_static(design, rows):
                  abs(r3.theta_deg[-1, 0, 0] - np.degrees(ref)), "deg", t3 * 1e3, ""))
 
 
+def _full_scale(design, volts):
+    """The design with level 1 = `volts` at the coil (whisker.guard.full_scale_voltage reads it)."""
+    from whisker.design import design_from_dict
+
+    data = design.model_dump()
+    data["drive"]["full_scale_voltage"] = volts
+    return design_from_dict(data)
+
+
 def bench_free(design, rows, curves):
     from whisker.sim import scene_from_dict, simulate
     from whisker.sim.kinematics import whisker_body
 
+    design = _full_scale(design, 1.0)                     # level 1 = 1 V at the coil
     body = whisker_body(design)
     base = {"scene": {"duration": 0.6}, "sensor": {"facing": "down"},
-            "actuation": {"voltage": 1.0, "schedule": [{"t": 0.05, "level": 1.0}, {"t": 0.35, "level": -0.5}]},
+            "actuation": {"schedule": [{"t": 0.05, "level": 1.0}, {"t": 0.35, "level": -0.5}]},
             "fidelity": {"heating": "off"}}
 
     def run(dt, integ, lut=256):
@@ -116,7 +127,7 @@ def bench_grasp(design, rows, curves):
         wall = 0.0
         simt = 0.0
         for o, cfg in cases:
-            s = paper.grasp_scene(s0, o, cfg)
+            s = paper.grasp_scene(s0, o, cfg, level=paper.grasp_level(design))
             s = s.with_(scene={**s.scene.model_dump(), "timestep": dt},
                         contact={**s.contact.model_dump(), "chunk": chunk, "cone": cone, "condim": condim})
             p = plan(s, design)
@@ -150,7 +161,7 @@ def bench_grasp(design, rows, curves):
                      "mm RMS object height", wall / simt * 1e3, f"{simt / wall:.1f}x real time"))
     # one attempt of the default grasp scene, timed alone
     o = objs[0]
-    s = paper.grasp_scene(s0, o, list(range(design.whiskers.count)))
+    s = paper.grasp_scene(s0, o, list(range(design.whiskers.count)), level=paper.grasp_level(design))
     p = plan(s, design)
     t, r = _best(lambda: simulate(s, design, p, body=body), 3)
     rows.append(("grasp scene (default settings)", "one 8-whisker attempt, foam ball", 0.0, "-", t * 1e3,
@@ -168,8 +179,9 @@ def bench_camera(design, rows):
     from whisker.sim import scene_from_dict, simulate
     from whisker.sim.camera import camera_run
 
+    design = _full_scale(design, 3.0)                     # level 1 = the paper's 3 V at the coil
     base = {"scene": {"duration": 1.0, "timestep": 1e-3, "seed": 2}, "sensor": {"facing": "up"},
-            "actuation": {"voltage": 3.0, "schedule": [{"t": 0.1, "level": 0.4, "whiskers": [0, 2, 4, 6]},
+            "actuation": {"schedule": [{"t": 0.1, "level": 0.4, "whiskers": [0, 2, 4, 6]},
                                                        {"t": 0.1, "level": -0.8, "whiskers": [1, 3, 5, 7]},
                                                        {"t": 0.6, "level": 1.0}]},
             "fidelity": {"heating": "off"}}

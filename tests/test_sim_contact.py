@@ -27,12 +27,13 @@ BALL = {"name": "foam ball", "shape": "sphere", "size": [7.0], "mass": 0.15, "fr
 def test_pruned_contact_equals_full_model_without_objects():
     """No objects: the own integrator (contact pruned) matches MuJoCo (contact forced on)."""
     base = {"scene": {"duration": 0.4, "timestep": 2e-4}, "sensor": {"facing": "down"},
-            "actuation": {"voltage": 1.0, "schedule": [{"t": 0.05, "level": 1.0}, {"t": 0.25, "level": -0.5}]},
+            "actuation": {"schedule": [{"t": 0.05, "level": 1.0}, {"t": 0.25, "level": -0.5}]},
             "fidelity": {"heating": "off"}}
-    a = simulate(scene_from_dict(base), D)
+    d1 = default_design("drive.full_scale_voltage=1.0")              # level 1 = 1 V at the coil
+    a = simulate(scene_from_dict(base), d1)
     full = scene_from_dict({**base, "fidelity": {"heating": "off", "contact": "on"}, "table": {"enabled": False},
                             "contact": {"chunk": 1}})
-    b = simulate(full, D)
+    b = simulate(full, d1)
     assert a.plan.solver == "free" and b.plan.solver == "mujoco"
     assert np.ptp(a.theta_deg[:, 0, 0]) > 2.0
     assert np.abs(a.theta_deg - b.theta_deg).max() < 0.06     # deg, of a ~5 deg swing (measured 0.044)

@@ -69,12 +69,13 @@ def test_static_equilibrium_finite_for_any_drive_and_stiffness(volts, k, facing)
 
 def test_static_solve_equals_settled_time_stepping():
     """A constant drive: the static solve (pruned time) equals the dynamic run once it settles."""
-    base = {"actuation": {"voltage": 0.8, "schedule": [{"t": 0.0, "level": 1.0}]}, "sensor": {"facing": "down"},
+    base = {"actuation": {"schedule": [{"t": 0.0, "level": 1.0}]}, "sensor": {"facing": "down"},
             "fidelity": {"heating": "off"}}
     s_static = scene_from_dict({**base, "scene": {"duration": 0.0}})
     s_dyn = scene_from_dict({**base, "scene": {"duration": 2.0, "timestep": 1e-3}, "fidelity": {"solver": "dynamic", "heating": "off"}})
-    a = simulate(s_static, D)
-    b = simulate(s_dyn, D)
+    d = default_design("drive.full_scale_voltage=0.8")               # level 1 = 0.8 V at the coil
+    a = simulate(s_static, d)
+    b = simulate(s_dyn, d)
     assert a.plan.solver == "static" and b.plan.solver == "free"
     assert a.theta_deg[0, 0, 0] > 1.0
     np.testing.assert_allclose(b.theta_deg[-1, :, 0], a.theta_deg[0, :, 0], atol=2e-3)
@@ -109,9 +110,9 @@ def test_zero_damping_conserves_energy_roughly_with_small_step():
 
 def test_strong_drive_rests_on_stop_without_nan():
     s = scene_from_dict({"scene": {"duration": 0.3, "timestep": 1e-3},
-                         "actuation": {"voltage": 24.0, "schedule": [{"t": 0.05, "level": 1.0}]},
+                         "actuation": {"schedule": [{"t": 0.05, "level": 1.0}]},
                          "fidelity": {"heating": "off"}})
-    r = simulate(s, D)
+    r = simulate(s, default_design("drive.full_scale_voltage=24", "drive.max_coil_voltage=24"))
     assert np.all(np.isfinite(r.theta_rad))
     np.testing.assert_allclose(r.theta_rad[-1, :, 0], B.stop_rad)
 
@@ -151,9 +152,10 @@ def test_whisker_actuate_cli_drives_the_simulator():
 
 def test_heating_effect_warms_the_coil_and_weakens_the_pull():
     base = {"scene": {"duration": 6.0, "timestep": 5e-3}, "sensor": {"facing": "down"},
-            "actuation": {"voltage": 2.0, "schedule": [{"t": 0.0, "level": 1.0}, {"t": 0.01, "level": 1.0}]}}
-    hot = simulate(scene_from_dict({**base, "fidelity": {"heating": "auto"}}), D)
-    cold = simulate(scene_from_dict({**base, "fidelity": {"heating": "off"}}), D)
+            "actuation": {"schedule": [{"t": 0.0, "level": 1.0}, {"t": 0.01, "level": 1.0}]}}
+    d = default_design("drive.full_scale_voltage=2.0")               # level 1 = 2 V at the coil
+    hot = simulate(scene_from_dict({**base, "fidelity": {"heating": "auto"}}), d)
+    cold = simulate(scene_from_dict({**base, "fidelity": {"heating": "off"}}), d)
     assert hot.plan.built("heating") and not cold.plan.built("heating")
     assert hot.temperature_C[-1].min() - hot.temperature_C[0].max() > 5.0      # K
     assert hot.theta_deg[-1, 0, 0] < cold.theta_deg[-1, 0, 0] - 0.05            # hotter coil, less current

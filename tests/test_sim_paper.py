@@ -43,6 +43,24 @@ def test_classification_sample_layout_128_ints():
     assert text.count("\n") == 1 and len(text.strip().split(",")) == 128
 
 
+def test_dataset_json_gives_the_loader_trial_ids(tmp_path):
+    """The classification run writes dataset.json: whisker.dataset.load_csv_folder then knows the trial
+    and pose (sensor rotation) of each row without being told."""
+    dataset = pytest.importorskip("whisker.dataset", reason="whisker.dataset (issue 9) not installed")
+    from whisker.sim.runner import run_scene
+
+    s = load_scene(SCENES / "classification.toml")
+    s = s.with_(experiment={**s.experiment.model_dump(), "trials": 2, "rotations": [0.0, 180.0],
+                            "objects": ["lightbulb", "eraser"]})
+    run_scene(s, D, plan(s, D), tmp_path / "run")
+    ds = dataset.load_csv_folder(tmp_path / "run" / "dataset")
+    assert ds.X.shape[1:] == (8, D.whiskers.count, 2) and sorted(ds.classes) == ["eraser", "lightbulb"]
+    for c in ds.classes:
+        m = ds.y == c
+        assert ds.trial[m].tolist() == [0, 1, 0, 1] and ds.pose[m].tolist() == [0, 0, 1, 1]   # pose-major
+    assert ds.sense == dataset.design_sense(D)
+
+
 @pytest.mark.skipif(peer_data() is None, reason="WHISKER_PEER_DATA not set: the authors' data is not available")
 def test_simulated_dataset_has_the_authors_layout():
     real = np.loadtxt(peer_data() / "objCls" / "cherry.csv", delimiter=",")

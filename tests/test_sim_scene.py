@@ -49,6 +49,7 @@ def test_example_scenes_load_and_plan():
     ({"actuation": {"schedule": [{"t": 1, "level": float("nan")}]}}, "level"),
     ({"actuation": {"schedule": [{"t": 1, "level": 1}, {"t": 0.5, "level": 0}]}}, "time order"),
     ({"experiment": {"kind": "grasp", "objects": ["nothing"]}}, "nothing"),
+    ({"actuation": {"voltage": 3.0}}, "drive.full_scale_voltage=3"),
 ])
 def test_bad_scenes_refused_in_one_line(data, words):
     with pytest.raises(SceneError) as err:
@@ -163,3 +164,25 @@ def test_object_parts_share_mass_by_volume_and_rest_on_the_table():
     with pytest.raises(SceneError, match="part sphere"):
         scene_from_dict({"objects": [{"name": "bad", "size": [1.0], "mass": 1.0,
                                       "parts": [{"shape": "sphere", "size": [0.0]}]}]})
+
+
+def test_level_one_is_the_full_scale_coil_voltage():
+    """A level is a fraction of whisker.guard.full_scale_voltage(design) in a scene and in the backend."""
+    guard = pytest.importorskip("whisker.guard", reason="whisker.guard (issue 7) not installed")
+    from whisker.sim.contract import current_A
+    from whisker.sim.kinematics import static_equilibrium, whisker_body
+
+    for d in (default_design(), default_design("drive.full_scale_voltage=1.5")):
+        vfs = guard.full_scale_voltage(d)
+        s = scene_from_dict({"actuation": {"schedule": [{"t": 0.0, "level": 0.5}]}, "sensor": {"facing": "down"}})
+        got = simulate(s, d).theta_deg[0, 0, 0]
+        want = static_equilibrium(d, whisker_body(d), current_A(d, np.array([0.5 * vfs])), facing="down").theta_rad[0]
+        assert got == pytest.approx(math.degrees(want), abs=1e-9)
+    assert guard.full_scale_voltage(default_design("drive.full_scale_voltage=1.5")) == 1.5
+    from whisker.sim import actuation_backend
+    assert actuation_backend(d).volts_full_scale == pytest.approx(guard.full_scale_voltage(d))
+
+
+def test_camera_tracks_with_roi_unless_the_scene_asks():
+    assert scene_from_dict({"camera": {"enabled": True}}).camera.method == "roi"
+    assert scene_from_dict({"camera": {"enabled": True, "method": "paper"}}).camera.method == "paper"

@@ -16,6 +16,7 @@ from typing import Callable
 
 import numpy as np
 
+from whisker.sim.contract import full_scale_voltage
 from whisker.sim.kinematics import gravity_torque, magnetic_torque, step_free, tip_positions_mm, whisker_body
 
 
@@ -32,7 +33,7 @@ class SimBackend:
         self.facing = facing
         self.model = magnetics_model
         self.max_catch_up_s = max_catch_up_s
-        self.volts_full_scale = _full_scale_voltage(design)
+        self.volts_full_scale = full_scale_voltage(design)   # V at level 1 (whisker.guard)
         self.levels = np.zeros(self.n)
         self.theta = np.zeros((self.n, 2))
         self.omega = np.zeros((self.n, 2))
@@ -90,16 +91,6 @@ class SimBackend:
     def tips_mm(self) -> np.ndarray:
         self.sync()
         return tip_positions_mm(self.design, self.theta)
-
-
-def _full_scale_voltage(design) -> float:
-    """Volts at the coil at 100 % duty: the hardware's (whisker.guard.full_scale_voltage, the same
-    mapping `whisker actuate` uses), else the design's grasp voltage."""
-    try:
-        from whisker.guard import full_scale_voltage
-    except ImportError:
-        return float(design.actuation.voltage)
-    return float(full_scale_voltage(design))
 
 
 def actuation_backend(design, **kw) -> SimBackend:

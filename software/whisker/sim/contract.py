@@ -41,6 +41,20 @@ def copper_mass_g(design) -> float:
     return float(m.winding(design).copper_mass_g)
 
 
+def full_scale_voltage(design) -> float:
+    """Volts at the coil at level 1 (100 % duty), V: ``whisker.guard.full_scale_voltage`` (the actuation
+    module's one definition: ``drive.full_scale_voltage`` if measured, else the driver model)."""
+    m = _mod("whisker.guard", "the meaning of an actuation level")
+    return float(m.full_scale_voltage(design))
+
+
+def volts_to_level(design, volts: float) -> float:
+    """Signed volts at the coil -> signed level (``whisker.guard.volts_to_levels``: refused above the
+    coil rating or beyond full scale)."""
+    m = _mod("whisker.guard", "the meaning of an actuation level")
+    return float(m.volts_to_levels(design, float(volts)))
+
+
 def coil_thermal(design):
     """A lumped coil thermal model with .ambient_C, .limit_C, .step(T, I, dt) (whisker.thermal)."""
     m = _mod("whisker.thermal", "the heating effect")
@@ -65,9 +79,15 @@ def render_frame(design, markers_px, **kw) -> np.ndarray:
     return m.render_frame(design, markers_px, **kw)
 
 
-def tracker(design, method: str = "paper", calibration=None):
+def tracker(design, method: str = "roi", calibration=None):
     m = _mod("whisker.tracking", "the tracking effect")
     return m.Tracker(design, method=method, calibration=calibration)
+
+
+def design_sense(design) -> int:
+    """+1/-1: the sense of the whisker numbering in the camera image (whisker.dataset)."""
+    m = _mod("whisker.dataset", "the dataset's dataset.json")
+    return int(m.design_sense(design))
 
 
 def geometry_deflection(design, dx_px, dy_px):

@@ -162,7 +162,8 @@ def predicted_rise_K(scene: Scene, design) -> float:
     if duration <= 0:
         return 0.0
     n = design.whiskers.count
-    volts = scene.actuation.voltage or design.actuation.voltage
+    from whisker.sim.contract import full_scale_voltage
+    volts = full_scale_voltage(design)
     th = coil_thermal(design)
     T0 = float(th.ambient_C)
     cuts = sorted({0.0, duration, *[e.t for e in scene.actuation.schedule if e.t < duration]})
@@ -211,9 +212,24 @@ def plan(scene: Scene, design) -> Plan:
                           "the sensor follows a path (prescribed, like the UR16e)" if moves
                           else "the sensor stays put (one pose)"))
     acts = scene.acts
+    drive = ""
+    if acts:
+        from whisker.sim.contract import full_scale_voltage
+        try:
+            v_fs = full_scale_voltage(design)
+        except MissingModule as err:
+            drive = f"level x full-scale voltage ({err})"
+        else:
+            if ex in ("grasp", "displacement"):
+                drive = (f"at {design.actuation.voltage:g} V = level {design.actuation.voltage / v_fs:.3g} of "
+                         f"the {v_fs:.3g} V full scale")
+            elif ex == "angle_vs_voltage":
+                drive = "at the experiment's voltages"
+            else:
+                top = max([abs(e.level) for e in scene.actuation.schedule] or [1.0])
+                drive = f"up to level {top:g} x {v_fs:.3g} V full scale"
     effects.append(Effect("magnetics", acts,
-                          f"coils driven (up to {max([abs(e.level) for e in scene.actuation.schedule] or [1.0]):g} x "
-                          f"{scene.actuation.voltage or design.actuation.voltage:g} V): force from whisker.magnetics "
+                          f"coils driven ({drive}): force from whisker.magnetics "
                           f"model {fid.magnetics!r}, torque about the pivot" if acts
                           else "no actuation in the scene (every level is 0)", needs=("kinematics",)))
     # heating
@@ -224,9 +240,10 @@ def plan(scene: Scene, design) -> Plan:
     elif fid.heating == "off":
         heat, why = False, "fidelity.heating = 'off'"
     elif ex in ("grasp", "displacement") and scene.objects:
-        from whisker.sim.paper import grasp_scene
-        rep = grasp_scene(scene, scene.objects[0], list(range(n)), release=ex == "displacement")
+        from whisker.sim.paper import grasp_level, grasp_scene
         try:
+            rep = grasp_scene(scene, scene.objects[0], list(range(n)), release=ex == "displacement",
+                              level=grasp_level(design))
             rise = predicted_rise_K(rep, design)
         except MissingModule as err:
             heat, why = False, f"cannot predict the coil's warming, run at ambient ({err})"

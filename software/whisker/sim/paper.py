@@ -4,8 +4,9 @@ Each attempt is an ordinary scene (whisker.sim.scene) built from the experiment 
 parameters, simulated with MuJoCo (the plan builds contact because the object is within reach).
 
 Grasp protocol (paper Section III-B): the sensor starts above the object, descends until the tips are
-``experiment.tip_height`` mm above the table, drives the configuration's coils at level 1
-(``actuation.voltage``, 3 V), waits for the whiskers to close, lifts ``experiment.lift`` mm, holds;
+``experiment.tip_height`` mm above the table, drives the configuration's coils at the design's
+``actuation.voltage`` (the paper's 3 V) as a level of the full-scale coil voltage
+(:func:`grasp_level`, whisker.guard), waits for the whiskers to close, lifts ``experiment.lift`` mm, holds;
 success if the object's centre ends more than ``experiment.hold_height`` mm above its resting height.
 Placement noise: the object's (x, y) ~ N(0, placement_noise^2) per axis, yaw uniform in
 +-yaw_noise; the sensor's yaw uniform over one whisker spacing.
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
 from dataclasses import dataclass
 
@@ -41,8 +43,18 @@ def configurations(scene: Scene, design) -> list[list[int]]:
     return out
 
 
+def grasp_level(design) -> float:
+    """The grasp's level: the design's ``actuation.voltage`` (paper: 3 V) / the full-scale coil voltage
+    (``whisker.guard``; refused above the coil rating or beyond full scale)."""
+    from whisker.sim.contract import volts_to_level
+    try:
+        return volts_to_level(design, design.actuation.voltage)
+    except ValueError as err:
+        raise SceneError(f"grasp: actuation.voltage: {err}") from None
+
+
 def grasp_scene(scene: Scene, obj, active: list[int], *, dx=0.0, dy=0.0, obj_yaw=0.0, sensor_yaw=0.0,
-                release: bool = False) -> Scene:
+                release: bool = False, level: float = 1.0) -> Scene:
     """One grasp attempt as a plain scene (path + schedule + the one object)."""
     e = scene.experiment
     h = e.tip_height
@@ -59,7 +71,7 @@ def grasp_scene(scene: Scene, obj, active: list[int], *, dx=0.0, dy=0.0, obj_yaw
     t4 = t3 + T_HOLD
     path = [[0.0, 0.0, 0.0, top, sensor_yaw], [t1, 0.0, 0.0, h, sensor_yaw], [t2, 0.0, 0.0, h, sensor_yaw],
             [t3, 0.0, 0.0, h + e.lift, sensor_yaw], [t4, 0.0, 0.0, h + e.lift, sensor_yaw]]
-    sched = [{"t": t1, "level": 1.0, "whiskers": list(active)}]
+    sched = [{"t": t1, "level": float(level), "whiskers": list(active)}]
     duration = t4
     if release:
         sched.append({"t": t4, "level": 0.0})
@@ -97,7 +109,8 @@ def grasp_attempt(scene, design, obj, active, rng, *, keep=False, release=False,
     oyaw = rng.uniform(-e.yaw_noise, e.yaw_noise)
     n = design.whiskers.count
     syaw = rng.uniform(-180.0 / n, 180.0 / n)
-    s = grasp_scene(scene, obj, active, dx=dx, dy=dy, obj_yaw=oyaw, sensor_yaw=syaw, release=release)
+    s = grasp_scene(scene, obj, active, dx=dx, dy=dy, obj_yaw=oyaw, sensor_yaw=syaw, release=release,
+                    level=grasp_level(design))
     p = plan(s, design)
     if not p.built("contact"):
         raise SceneError(f"grasp: object {obj.name!r} is out of reach of the whiskers")
@@ -311,6 +324,19 @@ def classification_dataset(scene: Scene, design, progress=None) -> dict[str, np.
     return out
 
 
+def dataset_info(scene: Scene, design) -> dict:
+    """The folder's ``dataset.json`` for ``whisker.dataset.load_csv_folder``: whisker count, the sense
+    of the whisker numbering in the camera image (``whisker.dataset.design_sense``) and the row order:
+    pose-major, ``trials_per_pose`` rows per sensor rotation (row = trials * rotation + trial), so each
+    row's trial id and pose (rotation index) are known."""
+    from whisker.sim.contract import design_sense
+
+    e = scene.experiment
+    return {"n_whiskers": design.whiskers.count, "sense": design_sense(design), "trials_per_pose": e.trials,
+            "rotations_deg": list(e.rotations), "records": e.directions * len(e.distances),
+            "source": f"whisker sim ({scene.scene.name}, design {design.digest()})"}
+
+
 def dataset_csv(rows: np.ndarray) -> str:
     return "".join(",".join(str(int(v)) for v in r) + "\n" for r in rows)
 
@@ -345,6 +371,7 @@ def run(kind: str, scene: Scene, design, files: dict, progress=None) -> dict:
         ds = classification_dataset(scene, design, progress)
         for name, rows in ds.items():
             files[f"dataset/{name}.csv"] = dataset_csv(rows)
+        files["dataset/dataset.json"] = json.dumps(dataset_info(scene, design), indent=2) + "\n"
         shape = {k: list(v.shape) for k, v in ds.items()}
         return {"dataset": shape, "headline": f"dataset/: {', '.join(f'{k} {v[0]}x{v[1]}' for k, v in shape.items())}"}
     raise SceneError(f"experiment.kind {kind!r} is not known")

@@ -15,7 +15,9 @@ Conventions (see docs/sim.md):
   vertical; between waypoints the pose moves linearly (the arm's linear moves);
 - an actuation event ``{t = s, level = l, whiskers = [...]}`` sets the signed duty ``l`` in [-1, 1]
   (+ retracts, tips toward the centre) of the listed whiskers (default all) from time t on; level 1
-  is ``actuation.voltage`` volts at the coil (default: the design's ``actuation.voltage``).
+  is the full-scale coil voltage ``whisker.guard.full_scale_voltage(design)``, the actuation module's
+  definition (``drive.full_scale_voltage`` when measured, else the driver model); a scene changes it
+  through its design (``[design] set = ["drive.full_scale_voltage=1.0"]``).
 """
 
 from __future__ import annotations
@@ -205,8 +207,17 @@ class ActEvent(_S):
 
 
 class ActuationSpec(_S):
-    voltage: float | None = Field(None, gt=0, le=48, description="V at the coil for level 1 (default: design)")
+    voltage: float | None = Field(None, description="no longer used: refused with a pointer to the design")
     schedule: list[ActEvent] = Field(default_factory=list)
+
+    @field_validator("voltage")
+    @classmethod
+    def _no_voltage(cls, v: float | None) -> None:
+        if v is not None:
+            raise ValueError("a level is a fraction of the full-scale coil voltage (whisker.guard."
+                             "full_scale_voltage); set it in the design: [design] set = "
+                             f"[\"drive.full_scale_voltage={v:g}\"]")
+        return None
 
     @field_validator("schedule")
     @classmethod
@@ -222,7 +233,9 @@ class CameraSpec(_S):
     fps: float = Field(30.0, gt=0, le=1000, description="frames per second")
     noise_sigma: float = Field(2.0, ge=0, le=100, description="grey levels of Gaussian noise")
     blur_px: float = Field(0.8, ge=0, le=20, description="px, Gaussian blur sigma")
-    method: str = Field("paper", description="tracking method (whisker.tracking)")
+    method: str = Field("roi", description="tracking method (whisker.tracking); default roi, the tracker's own "
+                                           "default: the paper's pipeline (method 'paper') loses markers on the "
+                                           "design's 1.2 mm dot (docs/tracking.md)")
     geometry: Literal["paper", "exact"] = Field("paper", description="pixels -> tip model (whisker.geometry)")
     calibration: str = Field("", description="lens calibration .npz (mtx, dist), relative to the scene: the "
                                              "frames get its distortion and the tracker undistorts; empty: pinhole")

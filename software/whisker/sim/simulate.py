@@ -60,7 +60,8 @@ class Drive:
 
     def __init__(self, scene: Scene, design, plan: Plan, body: WhiskerBody | None = None):
         self.scene, self.design = scene, design
-        self.volts = scene.actuation.voltage or design.actuation.voltage
+        from whisker.sim.contract import full_scale_voltage
+        self.volts = full_scale_voltage(design) if plan.built("magnetics") else 0.0   # V at level 1
         self.on = plan.built("magnetics")
         self.heating = plan.built("heating")
         n = design.whiskers.count
