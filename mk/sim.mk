@@ -1,13 +1,13 @@
 # Scene simulator (issue 8). See docs/sim.md. Run folders go to runs/<scene>/ (not in git).
 #   make sim-angle                  scene 1: whisker tilt against coil voltage (paper Fig. 4 shape)
-#   make sim-grasp ATTEMPTS=20     scene 2: the grasp table beside the paper's (5 objects x 8/4/2 whiskers)
+#   make sim-grasp ATTEMPTS=100    scene 2: the grasp table beside the paper's (5 objects x 8/4/2 whiskers)
 #   make sim-displacement TRIALS=5         scene 3: marker displacement against time, foam ball and pinecone
 #   make sim-dataset TRIALS=5      scene 4: classification dataset (runs/classification/dataset/<object>.csv)
 #   make sim-camera                end to end: frames -> tracker -> geometry, tip RMS error
 #   make sim-paper                 all of the above;  make sim-bench: accuracy vs cost table
 SIM_SCENES := software/whisker/sim/scenes
 SIM_RUNS ?= runs
-ATTEMPTS ?= 20
+ATTEMPTS ?= 100
 TRIALS ?= 5
 
 .PHONY: sim-angle sim-grasp sim-displacement sim-dataset sim-camera sim-paper sim-bench

@@ -147,3 +147,33 @@ def test_missing_mesh_file_refused_in_one_line(tmp_path):
                          "objects": [{"name": "m", "shape": "mesh", "mesh": "nope.stl", "size": [1.0], "mass": 1.0}]})
     with pytest.raises(SceneError, match="mesh file not found"):
         simulate(s, D)
+
+
+def test_torsional_friction_from_the_contact_patch():
+    """MuJoCo's torsional coefficient is (2/3) mu a for the scene's patch radius a (not MuJoCo's 5 mm
+    SI default, a patch 8x wider than the coated tip)."""
+    import re
+
+    from whisker.sim.mj import build_mjcf
+
+    for a in (0.6, 2.5):
+        s = scene_from_dict({"objects": [BALL], "contact": {"patch_radius": a}, "fidelity": {"contact": "on"}})
+        xml = build_mjcf(s, D, BODY)
+        tip = re.search(r'name="tip0"[^>]*friction="([^"]+)"', xml).group(1).split()
+        mu = float(tip[0])
+        assert mu == pytest.approx(D.mechanics.tip_friction)
+        assert float(tip[1]) == pytest.approx(2 / 3 * mu * a * 1e-3, rel=1e-6)
+        ball = re.search(r'<geom type="sphere"[^>]*friction="([^"]+)"', xml).group(1).split()
+        assert float(ball[1]) == pytest.approx(2 / 3 * BALL["friction"] * a * 1e-3, rel=1e-6)
+
+
+def test_scene_overrides_from_the_command_line(tmp_path):
+    from conftest import run_cli
+
+    scene = ROOT / "software" / "whisker" / "sim" / "scenes" / "grasp.toml"
+    res = run_cli("sim", str(scene), "--explain", "--json", "--scene-set", "contact.patch_radius=2.5")
+    assert res.returncode == 0, res.stderr
+    bad = run_cli("sim", str(scene), "--explain", "--scene-set", "contact.patch_radius=-1")
+    assert bad.returncode != 0 and "contact.patch_radius" in bad.stderr and bad.stderr.strip().count("\n") == 0
+    bad = run_cli("sim", str(scene), "--explain", "--scene-set", "nosuch.key=1")
+    assert bad.returncode != 0 and "no section 'nosuch'" in bad.stderr

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 import _sim_doubles
 from conftest import ROOT, peer_data
@@ -78,3 +79,49 @@ def test_displacement_mean_and_band_over_trials():
     after = t > d["phases"]["release"] + 0.3
     assert r["mean"][hold].mean() > 2.0                          # retracted: markers moved (px)
     assert r["mean"][after].mean() < r["mean"][hold].mean()      # released: back toward rest
+
+
+def test_wilson_interval_known_values_and_edges():
+    lo, hi = paper.wilson_interval(0, 20)
+    assert lo == 0.0 and hi == pytest.approx(16.11, abs=0.01)          # Brown, Cai & DasGupta (2001)
+    lo, hi = paper.wilson_interval(10, 20)
+    assert (lo, hi) == (pytest.approx(29.93, abs=0.01), pytest.approx(70.07, abs=0.01))
+    lo, hi = paper.wilson_interval(100, 100)
+    assert hi == 100.0 and lo == pytest.approx(96.30, abs=0.01)
+    with pytest.raises(ValueError, match="n must be"):
+        paper.wilson_interval(0, 0)
+    with pytest.raises(ValueError, match="not in"):
+        paper.wilson_interval(5, 4)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 2000), st.data())
+def test_wilson_interval_contains_the_rate_and_narrows(n, data):
+    k = data.draw(st.integers(0, n))
+    lo, hi = paper.wilson_interval(k, n)
+    assert 0.0 <= lo <= 100 * k / n <= hi <= 100.0
+    lo4, hi4 = paper.wilson_interval(4 * k, 4 * n)
+    assert hi4 - lo4 < hi - lo + 1e-9
+
+
+def test_grasp_order_strict_weak_and_resolved():
+    ci = [paper.wilson_interval(k, 100) for k in (90, 50, 10)]
+    assert paper.grasp_order([90, 50, 10], ci) == {"strict": True, "weak": True, "resolved": True}
+    ci = [paper.wilson_interval(k, 20) for k in (20, 19, 0)]
+    assert paper.grasp_order([100, 95, 0], ci) == {"strict": True, "weak": True, "resolved": False}
+    ci = [paper.wilson_interval(k, 20) for k in (20, 20, 10)]
+    assert paper.grasp_order([100, 100, 50], ci)["strict"] is False
+    assert paper.grasp_order([100, 100, 50], ci)["weak"] is True
+
+
+def test_small_grasp_table_has_intervals_and_order(tmp_path):
+    """The grasp experiment end to end, tiny (CI): one object, 2 attempts per configuration."""
+    s = load_scene(SCENES / "grasp.toml")
+    s = s.with_(experiment={**s.experiment.model_dump(), "attempts": 2, "objects": ["mini pinecone"]})
+    tab = paper.grasp_table(s, D)
+    r = tab["rates"]["mini pinecone"]
+    assert len(r) == 3 and all(v in (0.0, 50.0, 100.0) for v in r)
+    assert all(lo <= v <= hi for v, (lo, hi) in zip(r, tab["ci95"]["mini pinecone"]))
+    md = paper.grasp_markdown(tab)
+    assert "95 % CI" in md and "mini pinecone" in md and "Wilson" in md
+    assert paper.grasp_csv(tab).splitlines()[0].split(",")[3:6] == ["success_pct_sim", "ci95_low_pct", "ci95_high_pct"]

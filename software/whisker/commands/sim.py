@@ -18,11 +18,14 @@ from whisker.cliutil import fail
               help="Run folder (default: runs/<scene name>). Written atomically; old files are replaced.")
 @click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE",
               help="Override a design value for this run, e.g. --set mechanics.tip_friction=0.5 (repeatable).")
+@click.option("--scene-set", "scene_sets", multiple=True, metavar="SECTION.KEY=VALUE",
+              help="Override a scene value (TOML syntax), e.g. --scene-set contact.patch_radius=2.5 or "
+                   "--scene-set experiment.placement_noise=3 (repeatable).")
 @click.option("--attempts", type=int, default=None, help="Override experiment.attempts (grasp).")
 @click.option("--trials", type=int, default=None, help="Override experiment.trials (displacement, classification).")
 @click.option("--json", "as_json", is_flag=True, help="With --explain: print the plan as JSON.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
-def cli(scene_file, explain, out, overrides, attempts, trials, as_json, quiet):
+def cli(scene_file, explain, out, overrides, scene_sets, attempts, trials, as_json, quiet):
     """Simulate SCENE.toml: the sensor, its whiskers, coils, objects and camera.
 
     Builds only the effects the scene calls for (kinematics, gravity, motion, magnetics, heating,
@@ -36,6 +39,9 @@ def cli(scene_file, explain, out, overrides, attempts, trials, as_json, quiet):
 
     try:
         scene = load_scene(scene_file)
+        if scene_sets:
+            from whisker.sim.scene import scene_with_overrides
+            scene = scene_with_overrides(scene, scene_sets)
         changes = {}
         if attempts is not None or trials is not None:
             ex = scene.experiment.model_dump()

@@ -59,6 +59,17 @@ def _f(v) -> str:
     return " ".join(f"{float(x):.9g}" for x in np.atleast_1d(v))
 
 
+def _fr(scene, mu: float) -> str:
+    """MuJoCo's friction triplet (sliding, torsional m, rolling m) for Coulomb coefficient `mu`.
+
+    Torsional: (2/3) mu a for a disc of radius a = ``contact.patch_radius`` under uniform pressure
+    (the friction torque of a flat circular contact, e.g. Johnson, Contact Mechanics, sec. 7.3 /
+    any text on pivot friction). Rolling: 0.0001 m, MuJoCo's default (used only with condim 6).
+    MuJoCo takes the larger value of the two geoms of a contact.
+    """
+    return f"{mu:g} {2.0 / 3.0 * mu * scene.contact.patch_radius * MM:.9g} 0.0001"
+
+
 def build_mjcf(scene, design, body) -> str:
     """The MJCF XML of the scene (SI units)."""
     c = scene.contact
@@ -85,7 +96,7 @@ def build_mjcf(scene, design, body) -> str:
         out.append("</asset>")
     out.append('<worldbody>')
     if scene.table.enabled:
-        out.append(f'<geom name="table" type="plane" size="1 1 0.01" friction="{scene.table.friction:g} 0.005 0.0001" '
+        out.append(f'<geom name="table" type="plane" size="1 1 0.01" friction="{_fr(scene, scene.table.friction)}" '
                    'contype="1" conaffinity="3"/>')
     out.append('<body name="arm" gravcomp="1"><inertial pos="0 0 0" mass="100" diaginertia="1 1 1"/>'
                '<joint name="ax" type="slide" axis="1 0 0"/><joint name="ay" type="slide" axis="0 1 0"/>'
@@ -94,7 +105,7 @@ def build_mjcf(scene, design, body) -> str:
     # the membrane face: objects cannot pass through the sensor
     out.append(f'<geom name="membrane" type="cylinder" size="{design.membrane.inscribed_radius * MM:.9g} '
                f'{design.membrane.thickness / 2 * MM:.9g}" pos="0 0 {design.pivot_z * MM:.9g}" '
-               f'contype="2" conaffinity="0" friction="0.5 0.005 0.0001" mass="0"/>')
+               f'contype="2" conaffinity="0" friction="{_fr(scene, 0.5)}" mass="0"/>')
     for i, a in enumerate(design.whisker_angles_deg):
         ar = math.radians(a)
         cx, cy = math.cos(ar), math.sin(ar)
@@ -107,9 +118,9 @@ def build_mjcf(scene, design, body) -> str:
         out.append(f'<joint name="t{i}" type="hinge" axis="{_f([-cx, -cy, 0])}" stiffness="{body.stiffness:.9g}" solreflimit="{2 * scene.scene.timestep:.9g} 1" '
                    f'damping="{body.damping:.9g}" range="{-stop:.9g} {stop:.9g}" limited="true"/>')
         out.append(f'<geom name="rod{i}" type="capsule" fromto="0 0 {-body.rod_bottom_m:.9g} 0 0 {body.rod_top_m - coat:.9g}" '
-                   f'size="{r:.9g}" friction="{c.rod_friction:g} 0.005 0.0001" contype="2" conaffinity="0" mass="0"/>')
+                   f'size="{r:.9g}" friction="{_fr(scene, c.rod_friction)}" contype="2" conaffinity="0" mass="0"/>')
         out.append(f'<geom name="tip{i}" type="capsule" fromto="0 0 {body.rod_top_m - coat:.9g} 0 0 {body.rod_top_m:.9g}" '
-                   f'size="{r * c.tip_radius_factor:.9g}" friction="{mu_tip:g} 0.005 0.0001" contype="2" conaffinity="0" mass="0"/>')
+                   f'size="{r * c.tip_radius_factor:.9g}" friction="{_fr(scene, mu_tip)}" contype="2" conaffinity="0" mass="0"/>')
         out.append('</body>')
     out.append('</body></body>')
     for o in scene.objects:
@@ -125,7 +136,7 @@ def build_mjcf(scene, design, body) -> str:
 def _object_xml(scene, o) -> str:
     yaw = math.radians(o.yaw)
     q = [math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
-    fr = f'friction="{o.friction:g} 0.005 0.0001" contype="1" conaffinity="3"'
+    fr = f'friction="{_fr(scene, o.friction)}" contype="1" conaffinity="3"'
     if o.shape == "mesh":
         g = f'<geom type="mesh" mesh="mesh:{o.name}" mass="{o.mass * 1e-3:.9g}" {fr}/>'
         z = -_mesh_bounds(scene, o)[0][2] * o.size[0] * MM      # its lowest point rests on the table

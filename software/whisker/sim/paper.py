@@ -155,35 +155,72 @@ def grasp_table(scene: Scene, design, progress=None) -> dict:
             rates[o.name].append(100.0 * float(np.mean(ok)))
             lifts[o.name].append(ls)
     totals = [float(np.mean([rates[o.name][c] for o in objs])) for c in range(len(cfgs))]
-    return {"configurations": cfgs, "rates": rates, "totals": totals, "attempts": e.attempts,
-            "objects": {o.name: o.mass for o in objs}, "lifts_mm": lifts}
+    n = e.attempts
+    ci95 = {name: [wilson_interval(round(v / 100 * n), n) for v in r] for name, r in rates.items()}
+    return {"configurations": cfgs, "rates": rates, "ci95": ci95, "totals": totals, "attempts": n,
+            "objects": {o.name: o.mass for o in objs}, "lifts_mm": lifts,
+            "order": {name: grasp_order(r, ci95[name]) for name, r in rates.items()}}
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+    """Binomial 95 % confidence interval of a success rate, % (Wilson score interval; Wilson 1927,
+    recommended over the normal approximation near 0 and 100 % by Brown, Cai & DasGupta 2001)."""
+    if n <= 0:
+        raise ValueError("wilson_interval: n must be > 0 attempts")
+    if not 0 <= successes <= n:
+        raise ValueError(f"wilson_interval: successes {successes} not in 0..{n}")
+    p = successes / n
+    den = 1 + z * z / n
+    mid = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    lo = 0.0 if successes == 0 else 100 * max(0.0, mid - half)        # exact ends (no rounding below 100 %)
+    hi = 100.0 if successes == n else 100 * min(1.0, mid + half)
+    return (min(lo, 100 * p), max(hi, 100 * p))
+
+
+def grasp_order(rates: list[float], ci95: list[tuple[float, float]]) -> dict:
+    """Does the success rate fall strictly with fewer whiskers (configurations in the given order)?
+    ``strict``: every neighbouring pair strictly ordered; ``weak``: >=; ``resolved``: strictly, and
+    each pair's 95 % intervals do not overlap (the difference is not an accident of the attempts)."""
+    pairs = list(zip(rates, rates[1:]))
+    cis = list(zip(ci95, ci95[1:]))
+    return {"strict": all(a > b for a, b in pairs), "weak": all(a >= b for a, b in pairs),
+            "resolved": all(a > b and ca[0] > cb[1] for (a, b), (ca, cb) in zip(pairs, cis))}
 
 
 def grasp_markdown(tab: dict) -> str:
     cfgs = tab["configurations"]
-    head = " | ".join(f"{len(c)} whiskers sim / paper" for c in cfgs)
-    lines = [f"| object (mass) | {head} |", "| --- |" + " --- |" * len(cfgs)]
+    head = " | ".join(f"{len(c)} whiskers sim [95 % CI] / paper" for c in cfgs)
+    lines = [f"| object (mass) | {head} | 8 > 4 > 2 |", "| --- |" + " --- |" * (len(cfgs) + 1)]
     for name, r in tab["rates"].items():
         paper = PAPER_GRASP.get(name)
         cells = []
         for ci, v in enumerate(r):
             p = f"{paper[ci]}" if paper and ci < 3 and len(cfgs) == 3 else "-"
-            cells.append(f"{v:.0f} / {p}")
-        lines.append(f"| {name} ({tab['objects'][name]:g} g) | " + " | ".join(cells) + " |")
+            lo, hi = tab["ci95"][name][ci]
+            cells.append(f"{v:.0f} [{lo:.0f}-{hi:.0f}] / {p}")
+        o = tab["order"][name]
+        verdict = "strict, resolved" if o["resolved"] else "strict" if o["strict"] else "tie" if o["weak"] else "no"
+        lines.append(f"| {name} ({tab['objects'][name]:g} g) | " + " | ".join(cells) + f" | {verdict} |")
     tot = [f"{v:.0f} / {PAPER_GRASP_TOTAL[ci] if len(cfgs) == 3 else '-'}" for ci, v in enumerate(tab["totals"])]
-    lines.append("| total | " + " | ".join(tot) + " |")
-    return "\n".join(lines) + f"\n\n{tab['attempts']} simulated attempts per cell (sim %) beside the paper's 20 (paper %).\n"
+    lines.append("| total | " + " | ".join(tot) + " | |")
+    return "\n".join(lines) + (f"\n\n{tab['attempts']} simulated attempts per cell (sim %, Wilson 95 % interval) "
+                               "beside the paper's 20 (paper %). 'resolved': strictly ordered with disjoint "
+                               "intervals.\n")
 
 
 def grasp_csv(tab: dict) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["object", "mass_g", "active_whiskers", "success_pct_sim", "success_pct_paper", "attempts"])
+    w.writerow(["object", "mass_g", "active_whiskers", "success_pct_sim", "ci95_low_pct", "ci95_high_pct",
+                "success_pct_paper", "attempts"])
     for name, r in tab["rates"].items():
         for ci, v in enumerate(r):
             paper = PAPER_GRASP.get(name)
             p = paper[ci] if paper and len(tab["configurations"]) == 3 else ""
-            w.writerow([name, tab["objects"][name], len(tab["configurations"][ci]), f"{v:.1f}", p, tab["attempts"]])
+            lo, hi = tab["ci95"][name][ci]
+            w.writerow([name, tab["objects"][name], len(tab["configurations"][ci]), f"{v:.1f}", f"{lo:.1f}",
+                        f"{hi:.1f}", p, tab["attempts"]])
     return buf.getvalue()
 
 
@@ -349,8 +386,8 @@ def run(kind: str, scene: Scene, design, files: dict, progress=None) -> dict:
         tab = grasp_table(scene, design, progress)
         files["grasp_table.md"] = grasp_markdown(tab)
         files["grasp_table.csv"] = grasp_csv(tab)
-        order = {n: bool(all(r[i] >= r[i + 1] for i in range(len(r) - 1))) for n, r in tab["rates"].items()}
-        return {"grasp": {k: v for k, v in tab.items() if k != "lifts_mm"}, "order_holds": order,
+        order = {n: bool(o["strict"]) for n, o in tab["order"].items()}
+        return {"grasp": {k: v for k, v in tab.items() if k != "lifts_mm"}, "order_strict": order,
                 "headline": grasp_markdown(tab)}
     if kind == "displacement":
         d = displacement_runs(scene, design, progress)

@@ -272,6 +272,10 @@ class ContactSpec(_S):
     tip_coating: float = Field(5.0, gt=0, description="mm of sand coating at the tip")
     tip_radius_factor: float = Field(1.2, ge=1, le=5, description="coated tip radius / rod radius")
     condim: Literal[1, 3, 4, 6] = Field(4, description="MuJoCo contact dimensionality (4: + torsional friction)")
+    patch_radius: float = Field(0.6, ge=0, le=20, description=(
+        "mm, radius a of the contact patch for torsional friction: MuJoCo's torsional coefficient is "
+        "(2/3) mu a (uniform pressure on a disc); default the coated tip's radius (0.5 mm rod x 1.2), "
+        "MuJoCo's own default (5 mm in SI units) would be a patch 8x wider than the tip"))
     cone: Literal["pyramidal", "elliptic"] = "elliptic"
     impratio: float = Field(10.0, ge=1, le=100, description="MuJoCo friction-to-normal impedance ratio")
     integrator: Literal["Euler", "implicitfast", "implicit", "RK4"] = "implicitfast"
@@ -361,6 +365,26 @@ def load_scene(path: str | Path) -> Scene:
     except tomllib.TOMLDecodeError as err:
         raise SceneError(f"{path}: not valid TOML: {err}") from None
     data.setdefault("base_dir", str(path.resolve().parent))
+    return scene_from_dict(data)
+
+
+def scene_with_overrides(scene: Scene, overrides) -> Scene:
+    """A copy of `scene` with ``section.key=value`` overrides (value in TOML syntax), validated again."""
+    data = scene.model_dump()
+    for item in overrides:
+        key, sep, text = str(item).partition("=")
+        parts = key.strip().split(".")
+        if not sep or len(parts) != 2 or not all(parts):
+            raise SceneError(f"scene override {item!r}: expected section.key=value")
+        sec, k = parts
+        if not isinstance(data.get(sec), dict):
+            raise SceneError(f"scene override {item!r}: no section {sec!r} (one of "
+                             f"{', '.join(n for n, v in data.items() if isinstance(v, dict))})")
+        try:
+            value = tomllib.loads(f"v = {text.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text.strip()                    # a bare word: a string
+        data[sec][k] = value
     return scene_from_dict(data)
 
 
