@@ -49,7 +49,7 @@ def test_preferred_series():
 def test_property_preferred_value_close(v, series):
     up = DR.nearest_preferred(v, series, "up")
     near = DR.nearest_preferred(v, series)
-    step = 1.125 if series == "E24" else 10 ** (1 / 96) * 1.01  # E24: 2.4 -> 2.7 is the widest step
+    step = 1.5 / 1.3 if series == "E24" else 10 ** (1 / 96) * 1.01  # E24: 1.3 -> 1.5 is the widest step
     assert v * (1 - 1e-12) <= up <= v * step * 1.01
     assert abs(math.log(near / v)) <= math.log(step) / 2 + 1e-9
 

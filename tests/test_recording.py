@@ -150,8 +150,10 @@ def test_sigkill_mid_recording_keeps_every_completed_frame(tmp_path, durability)
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):
     out = tmp_path_factory.mktemp("rec") / "grasp"
-    res = run_cli("record", "--source", "synthetic:14", "--out", str(out), "--backend", "mock",
-                  "--grasp", "every-second", "--retract-s", "0.1", "--hold-s", "0.2", "--release-s", "0.1",
+    # The synthetic source is not paced: keep the grasp (60 ms) far shorter than rendering and writing
+    # 35 frames takes even on an idle machine, so the whole sequence is recorded.
+    res = run_cli("record", "--source", "synthetic:40", "--out", str(out), "--backend", "mock",
+                  "--grasp", "every-second", "--retract-s", "0.02", "--hold-s", "0.02", "--release-s", "0.02",
                   "--tail-s", "5", "--trial", "test", "-q")
     assert res.returncode == 0, res.stderr
     return out
@@ -159,13 +161,13 @@ def recorded(tmp_path_factory):
 
 def test_cli_record_grasp_session(recorded):
     s = load_session(recorded)
-    assert s.complete and s.meta["trial"] == "test" and s.meta["source"] == "synthetic:14"
-    assert len(s.frame_index) == 14 and all((recorded / "frames" / f).exists() for f in s.frame_files)
+    assert s.complete and s.meta["trial"] == "test" and s.meta["source"] == "synthetic:40"
+    assert len(s.frame_index) == 40 and all((recorded / "frames" / f).exists() for f in s.frame_files)
     phases = [p for _, p in s.phase_times()]
     assert phases[:5] == ["neutral", "retract", "hold", "release", "neutral"]
     retract = s.act_applied[[p == "retract" for p in s.act_phase]][0]
     assert np.flatnonzero(retract).tolist() == [0, 2, 4, 6]
-    assert s.tracks["x_px"].shape == (14, 8) and np.all(s.tracks["valid"] == 1)
+    assert s.tracks["x_px"].shape == (40, 8) and np.all(s.tracks["valid"] == 1)
     # one clock: actuation times lie within the recording's frame times
     assert s.frame_time_s[0] <= s.phase_times()[1][0] <= s.frame_time_s[-1]
     assert s.meta["guard"]["policy"] == "derate" and len(s.meta["sequence"]) == 4

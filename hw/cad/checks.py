@@ -138,7 +138,7 @@ def mesh_checks(name: str, mesh: trimesh.Trimesh, cad_volume: float, printable: 
         fits = h <= p.max_height and ((x <= p.bed_x and y <= p.bed_y) or (y <= p.bed_x and x <= p.bed_y))
         out.append(_check("fits printer", name, max(x, y, h), fits,
                           f"<= bed {p.bed_x:g} x {p.bed_y:g} x {p.max_height:g}", "mm",
-                          ("print.bed_x", "print.bed_y", "print.max_height"),
+                          ("print.profile",),
                           f"part is {x:.1f} x {y:.1f} x {h:.1f} mm"))
     return out
 

@@ -19,7 +19,7 @@ import cadquery as cq
 
 from whisker.design import Design
 
-from .shapes import cone, cut_all, cylinder, polar_xy, polygon_prism, radial_cylinder
+from .shapes import cut_all, cylinder, polar_xy, polygon_prism, radial_cylinder, revolved
 
 
 def levels(d: Design) -> dict[str, float]:
@@ -49,6 +49,16 @@ def led_outer_radius(d: Design) -> float:
     return d.cavity_radius + d.mount.led_strip_thickness + d.print.clearance
 
 
+def cavity_profile(d: Design, z: dict[str, float]) -> cq.Solid:
+    """The open inside of the mount as one solid of revolution: lens opening, cone, coil cavity
+    and, where the flange is narrower than the cavity, the undercut neck under the membrane.
+    One revolved outline has no coincident walls, so its mesh stays manifold for any design."""
+    r_cav, neck = d.cavity_radius, d.neck_radius
+    top = [(r_cav, -d.mount.flange_thickness), (neck, -d.mount.flange_thickness)] if neck < r_cav - 1e-6 else []
+    return revolved([(0.0, z["board_face"] - 0.01), (lens_radius(d), z["board_face"] - 0.01),
+                     (r_cav, z["cylinder_bottom"]), *top, (neck, z["seat"] + 0.5), (0.0, z["seat"] + 0.5)])
+
+
 def mount(d: Design) -> cq.Shape:
     z = levels(d)
     m, cam, clr = d.mount, d.camera, d.print.clearance
@@ -56,9 +66,7 @@ def mount(d: Design) -> cq.Shape:
     r_cav = d.cavity_radius
     tools = [
         polygon_prism(d.membrane.sides, d.membrane.inscribed_radius + clr, z["seat"], z["top"] + 1),
-        cylinder(d.neck_radius, -m.flange_thickness - 0.01, z["seat"] + 0.5),
-        cylinder(r_cav, z["cylinder_bottom"], -m.flange_thickness),
-        cone(lens_radius(d), r_cav, z["board_face"] - 0.01, z["cylinder_bottom"] + 0.01),
+        cavity_profile(d, z),
         # LED strip groove, facing inwards
         cylinder(led_outer_radius(d), z["led_bottom"], z["led_top"]),
         # camera board pocket and flat-cable slot, both open at the bottom

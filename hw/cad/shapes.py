@@ -37,6 +37,11 @@ def cone(r0: float, r1: float, z0: float, z1: float) -> cq.Solid:
     return cq.Solid.makeCone(r0, r1, z1 - z0, cq.Vector(0, 0, z0), Z)
 
 
+def revolved(profile_rz: list[tuple[float, float]]) -> cq.Solid:
+    """Solid of revolution about the z axis from a closed (r, z) outline (r >= 0)."""
+    return cq.Workplane("XZ").polyline(profile_rz).close().revolve(360, (0, 0, 0), (0, 1, 0)).val()
+
+
 def radial_cylinder(r_from: float, r_to: float, diameter: float, z: float, angle_deg: float) -> cq.Solid:
     """Cylinder whose axis runs radially outwards at height z from r_from to r_to."""
     c = cq.Solid.makeCylinder(diameter / 2.0, r_to - r_from, cq.Vector(r_from, 0, z), cq.Vector(1, 0, 0))

@@ -345,8 +345,12 @@ class Design(_Section):
 
     @property
     def neck_radius(self) -> float:
-        """Radius of the opening under the membrane (inside the seat flange), mm."""
-        return self.membrane.inscribed_radius - self.mount.seat_ledge
+        """Radius of the opening under the membrane (inside the seat flange), mm.
+
+        The flange leaves `mount.seat_ledge` of the membrane's rim to rest on, and never opens wider
+        than the coil cavity: on a small ring it reaches in to cover the magnet pockets.
+        """
+        return min(self.membrane.inscribed_radius - self.mount.seat_ledge, self.cavity_radius)
 
     @property
     def membrane_circumradius(self) -> float:
