@@ -15,7 +15,7 @@ DESIGN_ARGS := $(if $(DESIGN),--design $(DESIGN)) \
 	$(if $(RADIUS),--set whiskers.ring_radius=$(RADIUS)) \
 	$(foreach s,$(SET),--set $(s))
 
-.PHONY: help env stl step cad test test-fast bench sweep clean
+.PHONY: help env system-deps stl step cad test bench sweep clean
 
 help: ## list the targets
 	@grep -hE '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-12s %s\n",$$1,$$2}'
@@ -39,7 +39,10 @@ cad: stl
 sweep: $(BIN)/.installed ## feasibility sweep over whisker counts 2..16 and radii 4..20 mm
 	$(BIN)/whisker cad sweep $(DESIGN_ARGS) --out $(OUT)/sweep
 
-test: $(BIN)/.installed ## run the test suite
+system-deps: ## install the Debian packages the checks need (.ci/apt-packages: slicer, admesh, fonts)
+	scripts/system-deps
+
+test: $(BIN)/.installed system-deps ## run the test suite
 	$(BIN)/python -m pytest -q
 
 bench: $(BIN)/.installed ## accuracy-vs-time benchmarks; tables and plots in benchmarks/results/

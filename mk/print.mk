@@ -6,7 +6,7 @@ PREVIEW ?= $(OUT)/preview
 
 .PHONY: check-print preview
 
-check-print: $(BIN)/.installed ## slice every printable part headless: time, grams, supports -> exports/print_report.md
+check-print: $(BIN)/.installed system-deps ## slice every printable part headless: time, grams, supports -> exports/print_report.md
 	$(BIN)/whisker cad build $(DESIGN_ARGS) --out $(OUT) -q
 	$(BIN)/whisker print check $(DESIGN_ARGS) --out $(OUT)
 
