@@ -253,6 +253,12 @@ class MjScene:
         I = self.drive.currents(levels)
         self._magnetic_gains(I)
         self.mujoco.mj_step(self.model, d, nstep)
+        bad = d.warning[self.mujoco.mjtWarning.mjWARN_BADQACC]
+        if bad.number:                            # MuJoCo reset the state: the run is no longer physical
+            from whisker.sim.simulate import SimulationError
+            raise SimulationError(f"MuJoCo found an unstable acceleration (DOF {bad.lastinfo}) near t = "
+                                  f"{self.t + dt * nstep:.4g} s and reset the state; use a smaller "
+                                  "scene.timestep or a softer contact (contact.solref_timeconst)")
         self.drive.heat(I, dt * nstep)
         self.t += dt * nstep
 
