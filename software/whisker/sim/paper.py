@@ -200,7 +200,8 @@ def grasp_markdown(tab: dict) -> str:
             lo, hi = tab["ci95"][name][ci]
             cells.append(f"{v:.0f} [{lo:.0f}-{hi:.0f}] / {p}")
         o = tab["order"][name]
-        verdict = "strict, resolved" if o["resolved"] else "strict" if o["strict"] else "tie" if o["weak"] else "no"
+        verdict = ("-" if len(r) < 2 else "strict, resolved" if o["resolved"] else "strict" if o["strict"]
+                   else "tie" if o["weak"] else "no")
         lines.append(f"| {name} ({tab['objects'][name]:g} g) | " + " | ".join(cells) + f" | {verdict} |")
     tot = [f"{v:.0f} / {PAPER_GRASP_TOTAL[ci] if len(cfgs) == 3 else '-'}" for ci, v in enumerate(tab["totals"])]
     lines.append("| total | " + " | ".join(tot) + " | |")
