@@ -170,16 +170,21 @@ def bench_grasp(design, rows, curves):
         rows.append(("grasp (MuJoCo)", f"dt 0.002 s, chunk 5, torsional patch {patch:g} mm (default 0.6)",
                      float(np.mean(errs)), "mm RMS object height", wall / simt * 1e3,
                      f"{simt / wall:.1f}x real time; outcome agrees {agree}/{len(res)}"))
-    # one attempt of the default grasp scene, timed alone
-    o = objs[0]
-    s = paper.grasp_scene(s0, o, list(range(design.whiskers.count)), level=paper.grasp_level(design))
-    p = plan(s, design)
-    t, r = _best(lambda: simulate(s, design, p, body=body), 3)
+    # one 8-whisker attempt of each object of the default grasp scene, timed alone
     global GRASP_DT
-    GRASP_DT = s.scene.timestep
-    rows.append(("grasp scene (default settings)", f"one 8-whisker attempt, foam ball, dt {GRASP_DT:g} s", 0.0, "-", t * 1e3,
-                 f"{r.t_s[-1] / t:.1f}x real time (target >= 20x)"))
-    return r.t_s[-1] / t
+    GRASP_DT = s0.scene.timestep
+    tot_cpu = tot_sim = 0.0
+    for o in s0.objects:
+        s = paper.grasp_scene(s0, o, list(range(design.whiskers.count)), level=paper.grasp_level(design))
+        p = plan(s, design)
+        t, r = _best(lambda: simulate(s, design, p, body=body), 2)
+        tot_cpu += t
+        tot_sim += r.t_s[-1]
+        rows.append(("grasp scene (default settings)", f"one 8-whisker attempt, {o.name} ({len(o.parts) + 1} geoms), "
+                     f"dt {GRASP_DT:g} s", 0.0, "-", t * 1e3, f"{r.t_s[-1] / t:.1f}x real time"))
+    rows.append(("grasp scene (default settings)", "the five objects together", 0.0, "-", tot_cpu * 1e3,
+                 f"{tot_sim / tot_cpu:.1f}x real time (target >= 20x)"))
+    return tot_sim / tot_cpu
 
 
 def bench_camera(design, rows):
@@ -258,7 +263,8 @@ def main() -> int:
     md += ["", "## Targets", "",
            f"- static deflection scene: {static_ms:.3f} ms per run (target <= 1 ms): "
            f"{'met' if static_ms <= 1 else 'NOT met'}",
-           f"- grasp scene at the default settings (grasp.toml: dt {GRASP_DT * 1e3:g} ms, chunk 5): {xrt:.1f}x "
+           f"- grasp scene at the default settings (grasp.toml: dt {GRASP_DT * 1e3:g} ms, chunk 5), one 8-whisker "
+           f"attempt per object: {xrt:.1f}x "
            "faster than real time "
            f"(target >= 20x): {'met' if xrt >= 20 else 'NOT met'}", ""]
     atomic_write_text(OUT / "sim.md", "\n".join(md) + "\n")
