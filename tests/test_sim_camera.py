@@ -41,7 +41,7 @@ def test_end_to_end_tip_error_small_with_roi_tracker():
 
 
 def test_end_to_end_paper_pipeline_loses_small_markers_roi_does_not():
-    """The paper's pipeline (10x10 erosion) loses markers on the design's 1.2 mm dot (docs/tracking.md):
+    """The paper's pipeline (10x10 erosion) loses markers on small dots (docs/tracking.md):
     it either refuses its rest calibration or tracks fewer markers than roi, within a millimetre."""
     from whisker.tracking import CalibrationError
 

@@ -235,7 +235,7 @@ class CameraSpec(_S):
     blur_px: float = Field(0.8, ge=0, le=20, description="px, Gaussian blur sigma")
     method: str = Field("roi", description="tracking method (whisker.tracking); default roi, the tracker's own "
                                            "default: the paper's pipeline (method 'paper') loses markers on the "
-                                           "design's 1.2 mm dot (docs/tracking.md)")
+                                           "design's small dots (docs/tracking.md)")
     geometry: Literal["paper", "exact"] = Field("paper", description="pixels -> tip model (whisker.geometry)")
     calibration: str = Field("", description="lens calibration .npz (mtx, dist), relative to the scene: the "
                                              "frames get its distortion and the tracker undistorts; empty: pinhole")
