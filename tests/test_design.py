@@ -55,7 +55,7 @@ def test_bad_values_are_refused_with_the_parameter_named(override, names):
 
 
 def test_missing_and_broken_files(tmp_path):
-    with pytest.raises(DesignError, match="not found"):
+    with pytest.raises(DesignError, match="does not exist"):
         load_design(tmp_path / "nope.toml")
     bad = tmp_path / "bad.toml"
     bad.write_text("[whiskers\ncount = 8")

@@ -59,7 +59,7 @@ def test_bad_scenes_refused_in_one_line(data, words):
 
 
 def test_missing_and_broken_files(tmp_path):
-    with pytest.raises(SceneError, match="not found"):
+    with pytest.raises(SceneError, match="does not exist"):
         load_scene(tmp_path / "nope.toml")
     bad = tmp_path / "bad.toml"
     bad.write_text("[scene\nname=")

@@ -755,20 +755,9 @@ def sequence_from_dict(design, data: dict) -> list[Step]:
 
 def load_sequence(design, path) -> list[Step]:
     """Read a sequence TOML file (see :func:`sequence_from_dict`)."""
-    from pathlib import Path
+    from whisker.files import read_toml
 
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # pragma: no cover - Python 3.10
-        import tomli as tomllib  # type: ignore[no-redef]
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise ValueError(f"sequence file {path} does not exist") from None
-    except tomllib.TOMLDecodeError as err:
-        raise ValueError(f"sequence file {path}: {err}") from None
-    return sequence_from_dict(design, data)
+    return sequence_from_dict(design, read_toml(path, "sequence"))
 
 
 class SequenceRunner:

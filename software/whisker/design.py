@@ -382,7 +382,7 @@ class Design(_Section):
 
 # ---- loading -------------------------------------------------------------------------------
 
-def _parse_value(text: str) -> Any:
+def parse_value(text: str) -> Any:
     """Parse an override's value as a TOML value (6, 10.5, true, "N52"); bare words are strings."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
@@ -405,7 +405,7 @@ def apply_overrides(data: dict[str, Any], overrides: Iterable[str]) -> dict[str,
             node = node[p]
         if parts[-1] not in node:
             raise DesignError(f"override {key!r}: no parameter {parts[-1]!r} in [{'.'.join(parts[:-1])}]")
-        node[parts[-1]] = _parse_value(text.strip())
+        node[parts[-1]] = parse_value(text.strip())
     return out
 
 
@@ -436,13 +436,9 @@ def load_design(path: str | Path | None = None, overrides: Iterable[str] = ()) -
 
     Raises :class:`DesignError` with a one-line message naming the offending parameter(s).
     """
-    path = Path(path) if path else DEFAULT_DESIGN
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise DesignError(f"design file not found: {path}") from None
-    except tomllib.TOMLDecodeError as err:
-        raise DesignError(f"{path}: not valid TOML: {err}") from None
+    from whisker.files import read_toml
+
+    data = read_toml(Path(path) if path else DEFAULT_DESIGN, "design", DesignError)
     return design_from_dict(apply_overrides(data, overrides))
 
 

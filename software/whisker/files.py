@@ -12,6 +12,24 @@ from pathlib import Path
 from typing import Any, Iterator
 
 
+def read_toml(path: str | Path, what: str, error: type[Exception] = ValueError) -> dict:
+    """Parse the TOML file `path` (a `what` file: "design", "scene", "sequence" ...).
+
+    A missing or malformed file raises `error` with one line that names the file and the problem.
+    """
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+        import tomli as tomllib  # type: ignore[no-redef]
+    path = Path(path)
+    try:
+        return tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise error(f"{what} file {path} does not exist") from None
+    except tomllib.TOMLDecodeError as err:
+        raise error(f"{what} file {path}: not valid TOML: {err}") from None
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -27,12 +27,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from whisker.design import one_line_errors
-
-try:  # Python >= 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover - Python 3.10
-    import tomli as tomllib  # type: ignore[no-redef]
+from whisker.design import one_line_errors, parse_value
+from whisker.files import read_toml
 
 
 class SceneError(ValueError):
@@ -358,12 +354,7 @@ def scene_from_dict(data: dict[str, Any]) -> Scene:
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene TOML file. Raises :class:`SceneError` (one line) when it is bad."""
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise SceneError(f"scene file not found: {path}") from None
-    except tomllib.TOMLDecodeError as err:
-        raise SceneError(f"{path}: not valid TOML: {err}") from None
+    data = read_toml(path, "scene", SceneError)
     data.setdefault("base_dir", str(path.resolve().parent))
     return scene_from_dict(data)
 
@@ -380,11 +371,7 @@ def scene_with_overrides(scene: Scene, overrides) -> Scene:
         if not isinstance(data.get(sec), dict):
             raise SceneError(f"scene override {item!r}: no section {sec!r} (one of "
                              f"{', '.join(n for n, v in data.items() if isinstance(v, dict))})")
-        try:
-            value = tomllib.loads(f"v = {text.strip()}")["v"]
-        except tomllib.TOMLDecodeError:
-            value = text.strip()                    # a bare word: a string
-        data[sec][k] = value
+        data[sec][k] = parse_value(text.strip())  # a TOML value; a bare word is a string
     return scene_from_dict(data)
 
 
