@@ -122,12 +122,14 @@ def test_invalid_override_is_one_line_exit_2(tmp_path):
     assert not (tmp_path / "x").exists()
 
 
-def test_unchanged_build_is_a_no_op(default_build):
-    res = run_cli("cad", "build", "--out", str(default_build))
+def test_unchanged_build_is_a_no_op(default_build, tmp_path):
+    out = tmp_path / "exports"
+    shutil.copytree(default_build, out)  # a copy: other tests read the shared default build
+    res = run_cli("cad", "build", "--out", str(out))
     assert res.returncode == 0 and "up to date" in res.stdout
-    changed = run_cli("cad", "build", "--out", str(default_build), "--set", "print.clearance=0.25", "-q")
+    changed = run_cli("cad", "build", "--out", str(out), "--set", "print.clearance=0.25", "-q")
     assert changed.returncode == 0 and "built" in changed.stdout
-    assert load_manifest(default_build)["design"]["print"]["clearance"] == 0.25
+    assert load_manifest(out)["design"]["print"]["clearance"] == 0.25
 
 
 def test_cli_help_for_every_command():
