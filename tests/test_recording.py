@@ -184,12 +184,17 @@ def test_recording_replays_through_whisker_track(recorded, tmp_path):
     assert np.allclose(x, s.tracks["x_px"], atol=1e-3)  # PNG frames are lossless
 
 
+def _start_long_recording(out):
+    """`whisker record` of a grasp whose hold lasts 100 s, in a subprocess, to be interrupted."""
+    return subprocess.Popen([sys.executable, "-m", "whisker.cli", "record", "--source", "synthetic:400", "--out",
+                             str(out), "--backend", "mock", "--grasp", "all", "--hold-s", "100", "-q"],
+                            cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+
+
 def test_cli_record_sigkill(tmp_path):
     """`whisker record` killed with SIGKILL mid-recording: the session reads back, frames replay."""
     out = tmp_path / "killed"
-    p = subprocess.Popen([sys.executable, "-m", "whisker.cli", "record", "--source", "synthetic:400", "--out",
-                          str(out), "--backend", "mock", "--grasp", "all", "--hold-s", "100", "-q"],
-                         cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    p = _start_long_recording(out)
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline:
@@ -231,9 +236,7 @@ def test_sim_end_to_end_actuation_moves_tracked_markers(tmp_path):
 
 def test_cli_record_sigterm_switches_off_and_closes_cleanly(tmp_path):
     out = tmp_path / "term"
-    p = subprocess.Popen([sys.executable, "-m", "whisker.cli", "record", "--source", "synthetic:400", "--out",
-                          str(out), "--backend", "mock", "--grasp", "all", "--hold-s", "100", "-q"],
-                         cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    p = _start_long_recording(out)
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline:
