@@ -24,10 +24,10 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import cadquery as cq  # noqa: E402
-import numpy as np  # noqa: E402
 import trimesh  # noqa: E402
 
 from common import RESULTS, machine_line, markdown_table, save_figure, write_csv, write_text  # noqa: E402
+from whisker.cad import checks  # noqa: E402
 from whisker.cad.parts import PARTS  # noqa: E402
 from whisker.design import default_design  # noqa: E402
 
@@ -37,15 +37,9 @@ ANGULAR = [0.5, 0.3, 0.2, 0.1]
 
 def rod_hole_error(mesh: trimesh.Trimesh, d) -> float:
     """Largest error (mm) of the membrane mould's rod-socket diameters measured on the mesh."""
-    path = mesh.section(plane_origin=[0, 0, -d.rod_below_membrane / 2], plane_normal=[0, 0, 1])
-    m = np.eye(4)
-    m[2, 3] = d.rod_below_membrane / 2
-    polys = path.to_2D(to_2D=m)[0].polygons_full
+    sockets = checks.describe_circles(checks.holes(checks.section(mesh, -d.rod_below_membrane / 2)))
     want = d.hole(d.whiskers.rod_diameter)
-    from shapely.geometry import Polygon
-
-    dias = [2 * math.sqrt(Polygon(r).area / math.pi) for p in polys for r in p.interiors]
-    return max(abs(x - want) for x in dias)
+    return max(abs(dia - want) for _, _, dia in sockets)
 
 
 def tessellation_rows(d) -> list[dict]:

@@ -21,7 +21,7 @@ from whisker.files import atomic_write_json, publish, staging_dir
 
 from . import checks
 from .assembly import export_step, sensor_assembly
-from .buildkey import build_key
+from .buildkey import FORMATS, build_key
 from .parts import PARTS, print_pose, print_transform
 
 
@@ -55,7 +55,7 @@ def evaluate(d: Design) -> list[checks.Check]:
     return solid + mesh_design_checks(d, {n: checks.to_mesh(s, *tol) for n, s in solids.items()})
 
 
-def build(d: Design, out: str | Path, formats: tuple[str, ...] = ("stl", "step"),
+def build(d: Design, out: str | Path, formats: tuple[str, ...] = FORMATS,
           progress: Callable[[str], None] | None = None) -> dict:
     """Build, check and publish every part; returns the manifest. Raises DesignRefused."""
     out = Path(out)
@@ -76,6 +76,7 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = ("stl", "step")
 
     lin, ang = d.export.linear_tolerance, d.export.angular_tolerance
     parts: dict[str, dict] = {}
+    part_checks: dict[str, list[checks.Check]] = {}  # in part order, as the manifest lists them
     files: list[str] = []
     with staging_dir(out) as tmp:
         meshes: dict[str, trimesh.Trimesh] = {}
@@ -103,11 +104,10 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = ("stl", "step")
                 mesh = trimesh.load_mesh(tmp / f"{spec.name}.stl")
                 meshes[spec.name] = mesh.copy().apply_transform(np.linalg.inv(pose))
                 extent = tuple(mesh.extents) if spec.printable else None
-                entry["checks"] = [c.to_dict() for c in
-                                   checks.mesh_checks(spec.name, mesh, shape.Volume(), spec.printable, d, extent)]
+                part_checks[spec.name] = checks.mesh_checks(spec.name, mesh, shape.Volume(), spec.printable, d, extent)
             else:
                 meshes[spec.name] = checks.to_mesh(shape, lin, ang)
-                entry["checks"] = []
+                part_checks[spec.name] = []
         timings["export_s"] = time.perf_counter() - t
 
         if "step" in formats:
@@ -120,10 +120,11 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = ("stl", "step")
         measured = mesh_design_checks(d, meshes)
         timings["mesh_checks_s"] = time.perf_counter() - t
         for c in solid + measured:
-            parts.setdefault(c.part, {"checks": []}).setdefault("checks", []).append(c.to_dict())
+            part_checks.setdefault(c.part, []).append(c)
+        for name, found in part_checks.items():
+            parts.setdefault(name, {})["checks"] = [c.to_dict() for c in found]
 
-        failed = [checks.Check(**{**c, "parameters": tuple(c["parameters"])})
-                  for p in parts.values() for c in p.get("checks", []) if not c["ok"]]
+        failed = [c for found in part_checks.values() for c in found if not c.ok]
         if failed:
             raise DesignRefused(failed)
 

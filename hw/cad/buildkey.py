@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import hashlib
+import json
 from pathlib import Path
 
 from whisker.design import Design
+
+# Every build writes both; the key names them so a future STL-only build cannot pass for a full one.
+FORMATS = ("stl", "step")
 
 _PACKAGE = Path(__file__).resolve().parents[2] / "software" / "whisker"
 
@@ -22,3 +26,14 @@ def source_digest() -> str:
 
 def build_key(d: Design, formats: tuple[str, ...]) -> str:
     return f"{d.digest()}-{source_digest()}-{'+'.join(sorted(formats))}"
+
+
+def up_to_date(out: str | Path, d: Design, formats: tuple[str, ...] = FORMATS) -> bool:
+    """True when `out` holds a complete build of exactly this design and CAD code."""
+    out = Path(out)
+    try:
+        manifest = json.loads((out / "manifest.json").read_text())
+    except (FileNotFoundError, ValueError):
+        return False
+    files = [f for p in manifest.get("parts", {}).values() for f in p.get("files", {}).values()]
+    return manifest.get("build_key") == build_key(d, formats) and all((out / f).exists() for f in files)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 import time
 from pathlib import Path
@@ -11,21 +10,9 @@ import click
 
 from whisker.cliutil import design_options, fail
 
-FORMATS = {"all": ("stl", "step"), "stl": ("stl", "step"), "step": ("stl", "step")}
-
-
 @click.group()
 def cli():
     """Parametric CAD: every part of the sensor from the design, as STL and STEP, checked."""
-
-
-def _up_to_date(out: Path, key: str) -> bool:
-    try:
-        manifest = json.loads((out / "manifest.json").read_text())
-    except (FileNotFoundError, ValueError):
-        return False
-    files = [f for p in manifest.get("parts", {}).values() for f in p.get("files", {}).values()]
-    return manifest.get("build_key") == key and all((out / f).exists() for f in files)
 
 
 @cli.command()
@@ -40,11 +27,10 @@ def build(design, out, force, quiet):
     A design that fails a check is refused: exit status 1, one line naming the parameters and
     the violated constraint, and the output folder left exactly as it was.
     """
-    from whisker.cad.buildkey import build_key
+    from whisker.cad.buildkey import FORMATS, up_to_date
 
     out = Path(out)
-    formats = ("stl", "step")
-    if not force and _up_to_date(out, build_key(design, formats)):
+    if not force and up_to_date(out, design):
         click.echo(f"{out}/ is up to date (design {design.digest()})")
         return
     from whisker.cad.build import DesignRefused, build as run_build
@@ -52,7 +38,7 @@ def build(design, out, force, quiet):
     t0 = time.perf_counter()
     say = None if quiet else (lambda msg: click.echo(f"  {msg}", err=True))
     try:
-        manifest = run_build(design, out, formats, progress=say)
+        manifest = run_build(design, out, FORMATS, progress=say)
     except DesignRefused as err:
         fail(str(err), code=1)
     n = sum(len(p["checks"]) for p in manifest["parts"].values())

@@ -10,9 +10,6 @@ import click
 
 from whisker.cliutil import design_options, fail
 
-FORMATS = ("stl", "step")
-
-
 @click.group()
 def cli():
     """Printing: slice every printable part with PrusaSlicer (time, grams, supports), preview images.
@@ -24,13 +21,9 @@ def cli():
 
 def _ensure_build(design, out: Path, quiet: bool) -> None:
     """Build the design into `out` unless a build of exactly this design and code is there."""
-    from whisker.cad.buildkey import build_key
+    from whisker.cad.buildkey import FORMATS, up_to_date
 
-    try:
-        key = json.loads((out / "manifest.json").read_text()).get("build_key")
-    except (FileNotFoundError, ValueError):
-        key = None
-    if key == build_key(design, FORMATS):
+    if up_to_date(out, design):
         return
     from whisker.cad.build import DesignRefused, build
 
