@@ -103,13 +103,13 @@ def test_configuration_evenly_spaced(n, data):
 
 def test_per_whisker_levels_and_volts(design):
     act, be, _ = make(design)
-    levels = np.array([0.9, -0.9, 0.25, -0.25, 0.0, 1e-3, -1e-3, 0.5])
+    levels = np.array([0.6, -0.6, 0.25, -0.25, 0.0, 1e-3, -1e-3, 0.5])  # within max_level (0.63 at 7.5 V)
     with act:
         act.apply(levels, "levels")
         assert pin_values(be, be.channels) == expected(levels)
-        act.set_whisker(4, -0.75)
-        assert pin_values(be, be.channels)[4] == (0.0, 0.75, None)
-        assert pin_values(be, be.channels)[0] == (0.9, 0.0, None)  # others kept
+        act.set_whisker(4, -0.55)
+        assert pin_values(be, be.channels)[4] == (0.0, 0.55, None)
+        assert pin_values(be, be.channels)[0] == (0.6, 0.0, None)  # others kept
         volts = np.array([3.0, -3.0, 1.6, 0, 0, 0, 0, -0.8])
         act.set_volts(volts)
         fs = full_scale_voltage(design)
@@ -181,7 +181,7 @@ def test_no_shoot_through_on_reversal(design):
     names = {f"GPIO{c.forward}": (c.whisker, 0) for c in be.channels}
     names.update({f"GPIO{c.backward}": (c.whisker, 1) for c in be.channels})
     with act:
-        for lv in (0.9, -0.9, 0.3, -0.6, 0.0, -0.2, 0.9):
+        for lv in (0.6, -0.6, 0.3, -0.5, 0.0, -0.2, 0.6):
             act.apply(np.full(8, lv))
     state = np.zeros((8, 2))
     assert len(events) > 40
@@ -218,7 +218,9 @@ def test_grasp_sequence_phases_and_pins(design):
     act.log = lambda t, phase, req, applied: log.append((t, phase, applied.copy()))
     mask = configuration(8, "every-second")
     lvl = act.default_level()
-    steps = grasp_sequence(8, mask, lvl, retract_s=0.5, hold_s=1.0, release_s=0.3, hold_level=0.6,
+    # short phases at moderate levels: the coils stay below the guard's derate band (40 C), which a
+    # 3 V mean reaches in ~1 s from a 7.5 V supply (PWM heats with the 5.24 V full-scale current)
+    steps = grasp_sequence(8, mask, lvl, retract_s=0.3, hold_s=0.5, release_s=0.3, hold_level=0.2,
                            release_level=-0.2)
     assert [s.phase for s in steps] == ["retract", "hold", "release", "neutral"]
     seen = {}
@@ -230,12 +232,12 @@ def test_grasp_sequence_phases_and_pins(design):
             seen.setdefault(phase, pin_values(be, be.channels))
         assert pin_values(be, be.channels) == expected(np.zeros(8))
     assert seen["retract"] == expected(np.where(mask, lvl, 0.0))
-    assert seen["hold"] == expected(np.where(mask, 0.6, 0.0))
+    assert seen["hold"] == expected(np.where(mask, 0.2, 0.0))
     assert seen["release"] == expected(np.where(mask, -0.2, 0.0))
     phases = [p for _, p, _ in log]
     assert phases[:4] == ["retract", "hold", "release", "neutral"]
     t_changes = [t for t, p, _ in log if p in ("hold", "release")]
-    assert t_changes == pytest.approx([0.5, 1.5], abs=0.011)
+    assert t_changes == pytest.approx([0.3, 0.8], abs=0.011)
 
 
 def test_sequence_skipping_ticks_applies_every_step(design):

@@ -66,13 +66,15 @@ def test_quantities_follow_the_whisker_count(boms):
     assert boms[8]["magnet_wire"].value == pytest.approx(8 / 6 * boms[6]["magnet_wire"].value, abs=0.11)
     assert "pwm_expander" not in boms[6] and "pwm_expander" not in boms[8]
     assert boms[12]["pwm_expander"].value == 2  # 24 channels on 16-channel boards
-    # 2 signal jumpers per coil + 1 Pi GND to the supply; the expander adds 4 bus wires per board.
-    assert boms[6]["jumpers"].value == 2 * 6 + 1
-    assert boms[8]["jumpers"].value == 2 * 8 + 1
-    assert boms[12]["jumpers"].value == 2 * 12 + 1 + 4 * 2
-    # Supply current bound scales with N.
-    assert "at least 5 A" in boms[6]["coil_supply"].specification
-    assert "at least 9 A" in boms[12]["coil_supply"].specification
+    # 2 signal jumpers per coil + 1 Pi GND to the supply + 2 for the LED strip on the Pi's 5 V; the
+    # expander adds 4 bus wires per board.
+    assert boms[6]["jumpers"].value == 2 * 6 + 1 + 2
+    assert boms[8]["jumpers"].value == 2 * 8 + 1 + 2
+    assert boms[12]["jumpers"].value == 2 * 12 + 1 + 2 + 4 * 2
+    # Supply current scales with N: N x 0.748 A (7.5 V - the L298's drop, into 7 ohm) + 0.106 A per module.
+    assert "7.5 V regulated, at least 5 A" in boms[6]["coil_supply"].specification   # 4.81 A
+    assert "7.5 V regulated, at least 7 A" in boms[8]["coil_supply"].specification   # 6.41 A
+    assert "at least 10 A" in boms[12]["coil_supply"].specification                  # 9.62 A
 
 
 def test_material_quantities_come_from_cad_volumes():
@@ -97,6 +99,32 @@ def test_material_quantities_come_from_cad_volumes():
     assert b2["ecoflex"].value > b["ecoflex"].value and b2["rod"] == b["rod"]
 
 
+def test_led_strip_runs_from_the_pis_5V_not_the_coil_supply():
+    """A 5 V strip on the 7.5 V coil supply would be overdriven: it sits on the Pi's 5 V header pin."""
+    for vs in ("7.5", "5", "12"):
+        b = _by_item(bom_rows(default_design(f"driver.supply_voltage={vs}"), _fake_volumes(),
+                              CoilWire(1000.0, "test")))
+        assert b["led_strip"].specification.startswith("5 V 3528 LED strip")
+        assert "Pi's 5V header pin 4" in b["led_strip"].notes and f"not the {vs} V coil supply" in b["led_strip"].notes
+        assert "LED" not in b["coil_supply"].description and "LED" not in b["coil_supply"].notes
+
+
+@settings(max_examples=20, deadline=None)
+@given(vs=st.floats(4.0, 20.0), n=st.integers(1, 11), r=st.floats(3.0, 30.0))
+def test_supply_current_is_every_coil_fully_on(vs, n, r):
+    """I = N (Vs - V0) / (R + r_bridge) (L298N typ: V0 = 1.40 V, r = 1.15 ohm) + ceil(N/2) x 0.106 A,
+    below the no-drop bound N Vs / R plus the quiescent current, and the BOM rounds it up."""
+    from whisker.bom import supply_current_A
+
+    d = default_design(f"driver.supply_voltage={vs!r}", f"whiskers.count={n}", f"coil.resistance={r!r}")
+    i = supply_current_A(d)
+    expect = n * (vs - 1.40) / (r + 1.15) + math.ceil(n / 2) * 0.106
+    assert i == pytest.approx(expect, rel=1e-9)
+    assert i < n * vs / r + math.ceil(n / 2) * 0.106
+    spec = _by_item(bom_rows(d, _fake_volumes(), CoilWire(1000.0, "test")))["coil_supply"].specification
+    assert f"at least {math.ceil(i)} A" in spec
+
+
 def test_led_strip_fits_its_channel():
     d = default_design()
     circ, segments, length = led_strip(d)
@@ -113,7 +141,7 @@ def test_bom_rows_identities(n, scale, wire):
     b = _by_item(bom_rows(d, _fake_volumes(scale), CoilWire(wire, "test")))
     assert b["rod"].value == b["coil"].value == b["magnet"].value == n
     assert b["h_bridge"].value == math.ceil(n / 2)
-    assert b["jumpers"].value == 2 * n + 1 + (2 if n % 2 else 0)  # odd: spare IN3/IN4 to GND
+    assert b["jumpers"].value == 2 * n + 1 + 2 + (2 if n % 2 else 0)  # odd: spare IN3/IN4 to GND
     for r in b.values():
         assert math.isfinite(r.value) and r.value >= 0 and "\n" not in r.notes
 

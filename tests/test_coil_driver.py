@@ -55,7 +55,7 @@ def test_property_preferred_value_close(v, series):
 
 
 def test_plan_at_5V_and_12V():
-    p5 = DR.plan(D)
+    p5 = DR.plan(D, supply_V=5.0)
     assert p5["coil_V_full_on"] < 3.2 and p5["supply_for_direct_V"] > 4.5
     assert all(p["method"] != "divider" or p["warning"] == "infeasible" for p in p5["plans"])
     p12 = DR.plan(D, supply_V=12.0)
@@ -70,6 +70,18 @@ def test_plan_at_5V_and_12V():
     assert pwm["coil_heat_W"] > 2.5 * ser["coil_heat_W"]   # RMS heating at duty ~1/3
     low = DR.plan(D, supply_V=4.0)
     assert any("needed" in w for w in low["warnings"])
+
+
+def test_plan_at_the_default_7V5_supply():
+    """The default 7.5 V supply: 5.24 V at the coil fully on, so the paper's 3 V is PWM duty 0.573 and
+    the coil heats 1/0.573 = 1.75x a steady 3 V (the price of the L298's 5.8 V minimum supply)."""
+    p = DR.plan(D)
+    assert p["supply_V"] == 7.5 and p["warnings"] == []
+    assert p["coil_V_full_on"] == pytest.approx(5.24, abs=0.01)
+    pwm = next(x for x in p["plans"] if x["method"] == "pwm")
+    duty = 3.0 / p["coil_V_full_on"]
+    assert f"PWM duty {duty:.3f}" in pwm["detail"] and pwm["detail"].startswith("PWM duty 0.573")
+    assert pwm["coil_heat_W"] == pytest.approx((3.0 / 7.0) ** 2 * 7.0 / duty, rel=1e-3)
 
 
 def test_compare_drivers_mosfets_drop_less():

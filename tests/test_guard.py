@@ -154,7 +154,7 @@ def test_derating_does_not_flood_the_log(design):
     rows = []
     act = Actuator(design, mock_backend(design), guard=g, watchdog=False, clock=clock,
                    log=lambda t, p, r, a: rows.append(a.copy()))
-    act.retract(level=1.0)
+    act.retract(level=max_level(design))  # the largest level the coil rating allows
     for _ in range(3000):  # 60 s of 20 ms guard updates, deep in the derate band
         clock.advance(0.02)
         act.tick()
@@ -256,7 +256,66 @@ def test_full_scale_voltage_from_driver_model_or_measured(design):
     br = driver.bridge(design.driver.type)
     i = driver.coil_current_A(br, design.driver.supply_voltage, design.coil.resistance)
     assert full_scale_voltage(design) == pytest.approx(i * design.coil.resistance)
-    assert 2.5 < full_scale_voltage(design) < 3.5  # 5 V minus a bipolar bridge's ~2 V
+    # 7.5 V minus a bipolar bridge's ~2.3 V at 0.75 A: above the 3.3 V coil rating at level 1
+    assert 4.9 < full_scale_voltage(design) < 5.5
     assert full_scale_voltage(default_design("drive.full_scale_voltage=3.2")) == 3.2
     with pytest.raises(RatingError, match="below the L298N's drop"):
         full_scale_voltage(default_design("driver.supply_voltage=1.0"))
+
+
+# ---- the default supply (driver.supply_voltage = 7.5 V) ------------------------------------------
+
+def test_default_supply_limits_level_and_reaches_the_papers_3V(design):
+    """7.5 V into an L298N: 5.24 V at the coil at level 1, so level 1 is refused, the paper's 3 V is a
+    level below 1 and the rating's 3.3 V is the largest level (whisker.driver typ drop 1.40 V +
+    1.15 ohm x I: I = (7.5 - 1.40) / (7 + 1.15) = 0.748 A, 0.748 A x 7 ohm = 5.24 V)."""
+    vfs = full_scale_voltage(design)
+    assert vfs == pytest.approx((7.5 - 1.40) / (7.0 + 1.15) * 7.0, rel=1e-9)
+    assert vfs > design.drive.max_coil_voltage
+    top = max_level(design)
+    assert top == pytest.approx(design.drive.max_coil_voltage / vfs) and 0.62 < top < 0.64
+    level_3v = float(volts_to_levels(design, design.actuation.voltage))
+    assert design.actuation.voltage == 3.0 and level_3v == pytest.approx(3.0 / vfs) and 0.57 < level_3v < top
+    check_levels(design, np.full(8, top))
+    check_levels(design, np.full(8, level_3v))
+    with pytest.raises(RatingError, match="whisker 0 means 5.24 V at the coil.*largest level 0.63"):
+        check_levels(design, np.full(8, 1.0))
+    with pytest.raises(RatingError, match="whisker 0 means"):
+        check_levels(design, np.full(8, top + 1e-6))
+    # the old 5 V default reached 3 V only near full duty (level 0.97)
+    assert float(volts_to_levels(default_design("driver.supply_voltage=5"), 3.0)) == pytest.approx(0.970, abs=1e-3)
+
+
+@settings(max_examples=40, deadline=None)
+@given(vs=st.floats(4.0, 24.0), volts=st.floats(-3.3, 3.3))
+def test_volts_to_levels_round_trips_at_any_supply(vs, volts):
+    """level = volts / V_fs with V_fs = R (Vs - V0) / (R + r) from the L298N model; within the rating
+    and the full scale the round trip is exact, above either it is refused, never clipped."""
+    d = default_design(f"driver.supply_voltage={vs!r}")
+    vfs = full_scale_voltage(d)
+    assert vfs == pytest.approx(7.0 * (vs - 1.40) / (7.0 + 1.15), rel=1e-9)
+    assert max_level(d) == pytest.approx(min(1.0, 3.3 / vfs))
+    if abs(volts) <= vfs:
+        lv = float(volts_to_levels(d, volts))
+        assert lv * vfs == pytest.approx(volts, abs=1e-12)
+        assert abs(lv) <= max_level(d) + 1e-12
+        check_levels(d, np.full(8, lv))
+    else:
+        with pytest.raises(RatingError, match="100 % duty"):
+            volts_to_levels(d, volts)
+
+
+@settings(max_examples=8, deadline=None)
+@given(vs=st.floats(5.0, 12.0), frac=st.floats(0.3, 1.0))
+def test_derate_settles_without_trips_at_any_supply(vs, frac):
+    """At a higher supply one guard period of the full request heats a coil more; the trip look-ahead
+    uses the derated level, so a coil held at any allowed level still settles inside the band."""
+    d = default_design(f"driver.supply_voltage={vs!r}")
+    clock = FakeClock()
+    thermal, current = coil_model(d)
+    g = ThermalGuard(d, thermal=thermal, current_fn=current, clock=clock, policy="derate")
+    lv = frac * max_level(d)
+    ts, temps, allowed = hold(g, clock, np.full(8, lv), 150.0, dt=0.1)
+    assert temps.max() < g.cut_C
+    assert np.all(g.trips == 0)
+    assert 0 < allowed[-1, 0] < lv and temps[-1, 0] > g.derate_from_C

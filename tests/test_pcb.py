@@ -196,7 +196,31 @@ def test_supply_above_logic_range_keeps_module_regulators():
     assert {("U1", "13"), ("U1", "5"), ("U1", "6")} <= _net_pins(board.nets["U1_5V"])
     assert "keep the 5V-EN jumper fitted" in pinout.pinout_markdown(d)
     assert "Cautions" not in pinout.pinout_markdown(d)
-    assert "Cautions" in pinout.pinout_markdown(default_design())  # 5 V: below VIH + 2.5 V
+    assert "Cautions" not in pinout.pinout_markdown(default_design())  # 7.5 V: within the datasheet
+    assert "Cautions" in pinout.pinout_markdown(default_design("driver.supply_voltage=5"))  # < VIH + 2.5 V
+
+
+def test_default_supply_wiring(default_board):
+    """The default 7.5 V supply feeds VS only (each module's 78M05 makes its logic 5 V); the 5 V LED
+    strip sits on the Pi's 5 V header pin, never on the coil supply."""
+    nets = default_board.nets
+    supply = _net_pins(nets["+7.5V"])
+    assert ("PS1", "1") in supply and all(("U%d" % k, "11") in supply for k in range(1, 5))
+    assert not any(ref == "D1" or pin == "13" for ref, pin in supply)  # no LED, no VLOGIC on 7.5 V
+    assert _net_pins(nets["+5V_PI"]) == {("J1", "4"), ("D1", "1")}
+    assert ("D1", "2") in _net_pins(nets["GND"]) and ("J1", "6") in _net_pins(nets["GND"])
+    for k in range(1, 5):
+        assert {(f"U{k}", "13"), (f"U{k}", "5"), (f"U{k}", "6")} <= _net_pins(nets[f"U{k}_5V"])
+    md = pinout.pinout_markdown(default_design())
+    assert "LED strip + -> Pi 5V (header pin 4)" in md and "coil supply +7.5 V -> every module's +12V (VS) terminal;" in md
+
+
+@pytest.mark.parametrize("vs", ["5", "6.5", "9"])
+def test_led_strip_on_the_pi_at_any_supply(vs):
+    board = netlist.build_circuit(default_design(f"driver.supply_voltage={vs}"))
+    assert netlist.run_erc(board).errors == 0
+    assert _net_pins(board.nets["+5V_PI"]) == {("J1", "4"), ("D1", "1")}
+    assert ("D1", "1") not in _net_pins(board.nets[f"+{vs}V"])
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")  # kinparse uses pyparsing's old camelCase names

@@ -79,8 +79,11 @@ def test_modules_needed():
 def test_supply_warnings_follow_the_l298_datasheet():
     from whisker.pins import module_makes_own_logic_supply, supply_warnings
 
-    w5 = supply_warnings(default_design())  # 5 V < 3.3 V + 2.5 V
-    assert len(w5) == 1 and "5.8 V" in w5[0] and "\n" not in w5[0]
+    assert default_design().driver.supply_voltage == 7.5
+    assert supply_warnings(default_design()) == []  # the default 7.5 V is within the datasheet
+    assert module_makes_own_logic_supply(default_design())  # > 7 V: the module's 78M05 makes VSS
+    w5 = supply_warnings(default_design("driver.supply_voltage=5"))  # 5 V < 3.3 V + 2.5 V
+    assert len(w5) == 1 and "5.8 V" in w5[0] and "\n" not in w5[0] and "default 7.5 V" in w5[0]
     assert supply_warnings(default_design("driver.supply_voltage=6.5")) == []
     low = supply_warnings(default_design("driver.supply_voltage=4.0"))
     assert len(low) == 2 and "separate 5 V" in low[1]
@@ -97,3 +100,17 @@ def test_header_table_is_complete_and_consistent():
     assert phys == list(range(1, 41))  # every header pin exactly once
     assert [p for p, k in HEADER_POWER.items() if k == "GND"] == [6, 9, 14, 20, 25, 30, 34, 39]
     assert (HEADER_PIN[2], HEADER_PIN[3], HEADER_PIN[14], HEADER_PIN[15]) == (3, 5, 8, 10)
+
+
+@settings(max_examples=40, deadline=None)
+@given(vs=st.floats(0.5, 46.0))
+def test_supply_warnings_at_any_supply(vs):
+    """L298N: a caution below VS_min = 3.3 V + 2.5 V = 5.8 V, a second one below VSS_min = 4.5 V, none
+    from 5.8 V up; the module makes its own logic supply above VSS_max = 7 V."""
+    from whisker.pins import module_makes_own_logic_supply, supply_warnings
+
+    d = default_design(f"driver.supply_voltage={vs!r}")
+    w = supply_warnings(d)
+    assert len(w) == (vs < 5.8) + (vs < 4.5)
+    assert all("\n" not in x and "ST L298 datasheet" in w[0] for x in w)
+    assert module_makes_own_logic_supply(d) == (vs > 7.0)

@@ -8,7 +8,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from whisker.design import Design
-from whisker.pins import HEADER_PIN, HEADER_POWER, RESERVED, modules_needed, pin_map, used_gpio
+from whisker.pins import (HEADER_PIN, HEADER_POWER, LED_HEADER_PINS, RESERVED, module_makes_own_logic_supply,
+                          modules_needed, pin_map, used_gpio)
 
 
 PITCH = 0.42  # drawing units between header pins (drawn as one column, pin 1 on top)
@@ -126,8 +127,11 @@ def draw(design: Design, path: str | Path | None = None):
     ax.text(-0.2, -40 * PITCH - 0.2, "grey: kept free (ID EEPROM, I2C, UART)\nwhite: unused",
             ha="center", va="top", fontsize=6)
     ax.text(mx + 1.1, -height + 1.6,
-            f"+{design.driver.supply_voltage:g} V supply -> VS, +5V, ENA/ENB of every module and the "
-            "LED strip;\nsupply GND -> module GND, LED strip and Pi GND (pin 6)",
+            f"+{design.driver.supply_voltage:g} V supply -> "
+            + ("VS of every module (5V-EN jumper fitted)" if module_makes_own_logic_supply(design)
+               else "VS, +5V, ENA/ENB of every module (5V-EN jumper off)")
+            + f";\nsupply GND -> module GND and Pi GND (pin 6);\n5 V LED strip on Pi pins {LED_HEADER_PINS[0]} (5V) "
+            f"and {LED_HEADER_PINS[1]} (GND)",
             ha="center", va="top", fontsize=7)
     ax.set_title(f"Coil driver wiring: {n} coils, {mods} x {design.driver.type}"
                  + (f", PCA9685 expander" if expander else ", direct GPIO (PWM on IN pins)"),

@@ -9,7 +9,8 @@ is needed. Pin electrical types follow the hardware so that SKiDL's ERC can catc
   5V-EN jumper removed) and GND POWER-IN. ENA/ENB sit on +5V (the module's jumpers), unused
   inputs of a half-used module are tied to GND, unused outputs are no-connect.
 - coils (L1..LN): two PASSIVE pins across one channel's outputs.
-- the coil supply (PS1): + and GND POWER-OUT (net "+<supply>V"); the LED strip (D1): POWER-IN.
+- the coil supply (PS1): + and GND POWER-OUT (net "+<supply>V"); the 5 V LED strip (D1): POWER-IN,
+  on the Pi's 5 V header pin (net "+5V_PI", ``whisker.pins.LED_HEADER_PINS``), not the coil supply.
 - a supply above the L298's 7 V logic maximum keeps each module's 5V-EN jumper: its regulator then
   drives the module's own +5V net (VLOGIC, ENA, ENB) instead of the supply.
 - PCA9685 boards (U101..) when wiring.expander = "pca9685": VCC/GND POWER-IN, SDA BIDIR, SCL and
@@ -28,7 +29,7 @@ import re
 from dataclasses import dataclass, field
 
 from whisker.design import Design
-from whisker.pins import (HEADER_PIN, HEADER_POWER, PCA9685_CHANNELS, CoilChannel,
+from whisker.pins import (HEADER_PIN, HEADER_POWER, LED_HEADER_PINS, PCA9685_CHANNELS, CoilChannel,
                           expander_boards_needed, module_makes_own_logic_supply, modules_needed, pin_map)
 
 
@@ -161,14 +162,14 @@ def _supply(sk, ckt, d: Design):
     T = sk.Pin.types
     pins = [sk.Pin(num=1, name="+", func=T.PWROUT), sk.Pin(num=2, name="GND", func=T.PWROUT)]
     return _part(sk, ckt, "DC_supply", "PS1", f"{d.driver.supply_voltage:g}V",
-                 "TerminalBlock:TerminalBlock_bornier-2_P5.08mm", pins, "coil + LED supply")
+                 "TerminalBlock:TerminalBlock_bornier-2_P5.08mm", pins, "coil supply")
 
 
 def _led(sk, ckt):
     T = sk.Pin.types
     pins = [sk.Pin(num=1, name="+", func=T.PWRIN), sk.Pin(num=2, name="GND", func=T.PWRIN)]
     return _part(sk, ckt, "LED_strip", "D1", "3528 5V strip", "whisker:LED_strip_pads", pins,
-                 "LED strip in the mount's LED channel")
+                 "5 V LED strip in the mount's LED channel, fed from the Pi's 5 V header pin")
 
 
 def _pca9685(sk, ckt, k: int, address: int):
@@ -213,8 +214,10 @@ def _build_circuit(sk, design: Design) -> Board:
     ps = P["PS1"] = _supply(sk, ckt, design)
     led = P["D1"] = _led(sk, ckt)
     v5, gnd = net(supply_net_name(design)), net("GND")
-    v5 += ps["+"], led["+"]
+    v5 += ps["+"]
     gnd += ps["GND"], led["GND"]
+    led_5v = net("+5V_PI")  # the 5 V strip on the Pi's 5 V rail: the coil supply may be above 5 V
+    led_5v += pi[LED_HEADER_PINS[0]], led["+"]
     for phys, kind in HEADER_POWER.items():
         if kind == "GND":
             gnd += pi[phys]
@@ -251,7 +254,8 @@ def _build_circuit(sk, design: Design) -> Board:
             ckt.NC += x["V+"]
     else:
         ckt.NC += pi[1], pi[17]
-    ckt.NC += pi[2], pi[4]  # the Pi is powered from its own USB-C supply, not from the header
+    # the Pi is powered from its own USB-C supply, not from the header; one 5 V pin feeds the LEDs
+    ckt.NC += tuple(pi[p] for p, kind in HEADER_POWER.items() if kind == "5V" and p != LED_HEADER_PINS[0])
 
     driven = set()
     for ch in channels:

@@ -6,8 +6,8 @@ import csv
 import io
 
 from whisker.design import Design
-from whisker.pins import (HEADER_PIN, RESERVED, CoilChannel, module_makes_own_logic_supply, modules_needed,
-                          pin_map, supply_warnings, used_gpio)
+from whisker.pins import (HEADER_PIN, LED_HEADER_PINS, RESERVED, CoilChannel, module_makes_own_logic_supply,
+                          modules_needed, pin_map, supply_warnings, used_gpio)
 
 COLUMNS = ("coil", "angle_deg", "signal", "source", "header_pin", "module", "module_terminal",
            "coil_terminal")
@@ -58,15 +58,18 @@ def pinout_markdown(design: Design) -> str:
     lines += ["| " + " | ".join(r[c] for c in COLUMNS) + " |" for r in rows]
     vs = design.driver.supply_voltage
     if module_makes_own_logic_supply(design):
-        feed = (f"- coil supply +{vs:g} V -> every module's +12V (VS) terminal and the LED strip +; keep the "
-                "5V-EN jumper fitted (the module's regulator makes its 5 V logic; its +5V terminal stays open).")
+        feed = (f"- coil supply +{vs:g} V -> every module's +12V (VS) terminal; keep the 5V-EN jumper fitted "
+                "(the module's regulator makes its 5 V logic; its +5V terminal stays open).")
     else:
         feed = (f"- coil supply +{vs:g} V -> every module's +12V (VS) and +5V terminals (remove the "
-                "module's 5V-EN regulator jumper) and the LED strip +.")
+                "module's 5V-EN regulator jumper).")
+    led_p, led_n = LED_HEADER_PINS
     lines += ["", "## Power and ground", "", feed,
-              "- supply GND -> every module's GND, the LED strip - and a Pi GND pin (header pin 6): "
+              "- supply GND -> every module's GND and a Pi GND pin (header pin 6): "
               "the Pi's outputs need the common ground.",
-              "- the Pi runs from its own USB-C supply; header 5V pins stay unconnected."]
+              f"- 5 V LED strip + -> Pi 5V (header pin {led_p}), LED strip - -> Pi GND (header pin {led_n}): "
+              "the strip never sees the coil supply.",
+              "- the Pi runs from its own USB-C supply; its other header 5V pin stays unconnected."]
     if n % 2:
         lines += [f"- the spare channel B of U{modules_needed(n)}: jumper IN3 and IN4 to Pi GND pins, "
                   "leave OUT3/OUT4 open."]

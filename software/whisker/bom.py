@@ -18,9 +18,11 @@ Quantity rules (all inputs from the Design unless stated):
   infill fraction f of the printer profile (the BOM quantity by default); slicer = the grams PrusaSlicer
   reports (``--print-report``, used as the quantity when given). Plus bom.pla_waste.
 - LED strip: the whole cut segments that fit in the LED channel, whose circumference is
-  2 pi (cavity_radius + mount.led_strip_thickness).
-- coil supply: N x driver.supply_voltage / coil.resistance amperes, i.e. every coil at 100 % duty with
-  no bridge drop (an upper bound), rounded up to whole amperes.
+  2 pi (cavity_radius + mount.led_strip_thickness). A 5 V strip on the Pi's 5 V header pin
+  (``whisker.pins.LED_HEADER_PINS``), not on the coil supply.
+- coil supply: N x V_fs / coil.resistance + modules x the L298's quiescent current, rounded up to
+  whole amperes: every coil fully on at once (the PWM on-phases all overlapping), V_fs from
+  ``whisker.guard.full_scale_voltage`` (the bridge's typical drop; a measured value when set).
 """
 
 from __future__ import annotations
@@ -34,8 +36,9 @@ from pathlib import Path
 from typing import Optional
 
 from whisker.design import Design
-from whisker.pins import (PCA9685_CHANNELS, expander_boards_needed, module_makes_own_logic_supply, modules_needed,
-                          pin_map, supply_warnings)
+from whisker.guard import full_scale_voltage
+from whisker.pins import (LED_HEADER_PINS, PCA9685_CHANNELS, expander_boards_needed, module_makes_own_logic_supply,
+                          modules_needed, pin_map, supply_warnings)
 
 COLUMNS = ("item", "category", "description", "quantity", "unit", "specification", "example_source",
            "notes")
@@ -225,9 +228,18 @@ def led_strip(design: Design) -> tuple[float, int, float]:
     return circ, segments, segments * design.bom.led_cut_pitch
 
 
+#: ST L298 datasheet, electrical characteristics: quiescent supply current IS <= 70 mA (pin 4, inputs
+#: high) plus logic current ISS <= 36 mA (pin 9), which the module's 78M05 also draws from VS, A.
+L298_QUIESCENT_A = 0.070 + 0.036
+
+
 def supply_current_A(design: Design) -> float:
-    """Upper bound of the coil supply current: every coil at 100 % duty, no bridge drop (A)."""
-    return design.whiskers.count * design.driver.supply_voltage / design.coil.resistance
+    """Coil supply current with every coil fully on at once, A: N x V_fs / R (+ the L298 modules'
+    quiescent current). V_fs = ``whisker.guard.full_scale_voltage``: the supply minus the bridge's
+    typical drop (8 x 5.24 V / 7 ohm = 5.99 A at 7.5 V; without the drop it would be 8.6 A)."""
+    coils = design.whiskers.count * full_scale_voltage(design) / design.coil.resistance
+    quiescent = modules_needed(design.whiskers.count) * L298_QUIESCENT_A if design.driver.type == "L298N" else 0.0
+    return coils + quiescent
 
 
 def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
@@ -364,25 +376,28 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
 
     circ, segments, strip_mm = led_strip(d)
     add("led_strip", "buy", "LED strip lighting the coils", _num(strip_mm), "mm",
-        f"{d.driver.supply_voltage:g} V 3528 LED strip (on the coil supply), {d.mount.led_strip_width:g} mm wide, {segments} segment(s) of "
-        f"{b.led_cut_pitch:g} mm", "any 3528 strip (60 LED/m) rated for the supply voltage",
+        f"5 V 3528 LED strip, {d.mount.led_strip_width:g} mm wide, {segments} segment(s) of "
+        f"{b.led_cut_pitch:g} mm", "any 5 V 3528 strip (60 LED/m)",
         f"LED channel circumference {circ:.1f} mm = 2 pi (cavity radius + strip thickness); whole "
-        "segments only")
+        f"segments only; powered from the Pi's 5V header pin {LED_HEADER_PINS[0]} (GND pin "
+        f"{LED_HEADER_PINS[1]}), not the {d.driver.supply_voltage:g} V coil supply")
 
     amps = supply_current_A(d)
-    add("coil_supply", "buy", "DC supply for the coils and LEDs", "1", "pcs",
-        f"{d.driver.supply_voltage:g} V, at least {math.ceil(amps)} A",
-        "bench supply or wall adapter",
-        f"{n} coils x {d.driver.supply_voltage:g} V / {c.resistance:g} ohm = {amps:.2f} A at 100 % duty "
-        "(upper bound) plus the LED strip; share its GND with the Pi")
+    add("coil_supply", "buy", "DC supply for the coils", "1", "pcs",
+        f"{d.driver.supply_voltage:g} V regulated, at least {math.ceil(amps)} A",
+        "bench supply or regulated wall adapter",
+        f"{amps:.2f} A with all {n} coils fully on at once ({full_scale_voltage(d):.2f} V at each "
+        f"{c.resistance:g} ohm coil after the bridge drop) and the modules' quiescent current; "
+        "share its GND with the Pi")
 
     signal = sum(2 + (ch.enable is not None) for ch in channels)  # source -> IN (and EN) per coil
     spare = 2 if n % 2 else 0  # IN3/IN4 of a half-used module tied to a Pi GND pin (as in the netlist)
     bus = 4 * expander_boards_needed(n) if expander else 0  # 3V3, GND, SDA, SCL per PCA9685 board
-    jumpers = signal + 1 + spare + bus  # + one Pi GND -> supply GND (the common ground)
+    jumpers = signal + 1 + 2 + spare + bus  # + one Pi GND -> supply GND (the common ground), + 2 LED
     add("jumpers", "buy", "female-female jumper wires", _num(jumpers), "pcs",
         "2.54 mm Dupont, 20 cm", "any",
         f"from the pin map (hw/pcb/generated/pinout.md): {signal} signal + 1 Pi GND to the supply GND"
+        " + 2 LED strip to the Pi's 5V and GND (cut one end, solder it to the strip)"
         + (f" + {spare} tying the spare IN3/IN4 to GND" if spare else "")
         + (f" + {bus} for the PCA9685 bus (3V3, GND, SDA, SCL per board)" if bus else ""))
     add("power_wire", "buy", "power wire supply -> modules", _num(2 * modules), "pcs",

@@ -283,18 +283,20 @@ class ThermalGuard:
         """Fraction (0..1) of the requested |level| each coil may have from now on.
 
         A coil trips when its temperature, or the temperature the model predicts one guard period
-        ahead at the requested level, reaches the cut-off: so the cut comes before the crossing, not
-        one update after it.
+        ahead at the level it would apply (the request times the derate factor), reaches the
+        cut-off: so the cut comes before the crossing, not one update after it. (Predicting with the
+        un-derated request instead trips a derating coil whenever one period of the full request
+        heats it across the cut-off, e.g. at the 5.24 V full scale of a 7.5 V supply.)
         """
         t = self.temperatures
-        ahead = t if requested is None else np.maximum(
-            t, self.predict(requested, float(self.design.drive.guard_period)))
-        newly = (~self.tripped) & (ahead >= self.cut_C)
-        self.trips += newly
-        self.tripped = np.where(self.tripped, t >= self.resume_C, ahead >= self.cut_C)
         f = np.ones(self.n)
         if self.policy == "derate" and self.cut_C > self.derate_from_C:
             f = np.clip((self.cut_C - t) / (self.cut_C - self.derate_from_C), 0.0, 1.0)
+        ahead = t if requested is None else np.maximum(
+            t, self.predict(np.asarray(requested, dtype=float) * f, float(self.design.drive.guard_period)))
+        newly = (~self.tripped) & (ahead >= self.cut_C)
+        self.trips += newly
+        self.tripped = np.where(self.tripped, t >= self.resume_C, ahead >= self.cut_C)
         return np.where(self.tripped, 0.0, f)
 
     def allow(self, requested, now: Optional[float] = None) -> np.ndarray:

@@ -72,6 +72,12 @@ LOGIC_HIGH_V = 3.3
 L298_VS_ABOVE_VIH = 2.5
 L298_VSS_RANGE = (4.5, 7.0)
 
+#: The LED strip (a 5 V 3528 strip) runs from the Pi's 5 V header rail, whatever the coil supply: a
+#: 7.5 V coil supply would overdrive it. (+, -) physical header pins; pin 6 (GND) carries the common
+#: ground to the coil supply. The strip draws ~0.1 A (100 mm of a 4.8 W/m strip), well within what
+#: a 3 A Pi supply leaves on the 5 V rail.
+LED_HEADER_PINS = (4, 9)
+
 
 def supply_warnings(design) -> list[str]:
     """Electrical cautions about the driver supply for this wiring (one line each, [] when none)."""
@@ -83,7 +89,7 @@ def supply_warnings(design) -> list[str]:
     if vs < vs_min:
         out.append(f"driver.supply_voltage = {vs:g} V is below the L298's operating minimum VS >= V_IH + "
                    f"{L298_VS_ABOVE_VIH:g} V = {vs_min:g} V with {LOGIC_HIGH_V:g} V inputs (ST L298 "
-                   "datasheet); modules often still switch, a supply of 6-7 V is within the datasheet")
+                   "datasheet); modules often still switch, but the default 7.5 V (5V-EN jumper fitted) is within it")
     if vs < L298_VSS_RANGE[0]:
         out.append(f"driver.supply_voltage = {vs:g} V is below the L298's logic supply minimum "
                    f"{L298_VSS_RANGE[0]:g} V: feed the modules' +5V terminals from a separate 5 V supply")
