@@ -4,15 +4,17 @@ Parts are defined here in code (``Part(tool=SKIDL, pins=[Pin(...)])``), so no Ki
 is needed. Pin electrical types follow the hardware so that SKiDL's ERC can catch wiring mistakes:
 
 - Raspberry Pi 4B 40-pin header (J1): coil GPIO are OUTPUT, I2C pins BIDIR, GND pins POWER-IN, the
-  3V3 pins POWER-OUT (they feed a PCA9685's logic), every unused pin explicitly no-connect.
-- L298N module (U1..Um): IN1..IN4 and ENA/ENB INPUT, OUT1..OUT4 OUTPUT, +12V (VS), +5V (logic,
-  5V-EN jumper removed) and GND POWER-IN. ENA/ENB sit on +5V (the module's jumpers), unused
+  3V3 pins POWER-OUT (they feed a PCA9685's logic), 5V pins POWER-OUT (pin 4 feeds the LED strip),
+  every unused pin explicitly no-connect.
+- L298N module (U1..Um): IN1..IN4 and ENA/ENB INPUT, OUT1..OUT4 OUTPUT, +12V (VS), +5V (logic)
+  and GND POWER-IN. ENA/ENB sit on +5V (the module's jumpers), unused
   inputs of a half-used module are tied to GND, unused outputs are no-connect.
 - coils (L1..LN): two PASSIVE pins across one channel's outputs.
 - the coil supply (PS1): + and GND POWER-OUT (net "+<supply>V"); the 5 V LED strip (D1): POWER-IN,
   on the Pi's 5 V header pin (net "+5V_PI", ``whisker.pins.LED_HEADER_PINS``), not the coil supply.
-- a supply above the L298's 7 V logic maximum keeps each module's 5V-EN jumper: its regulator then
-  drives the module's own +5V net (VLOGIC, ENA, ENB) instead of the supply.
+- a supply above the L298's 7 V logic maximum (the default 7.5 V) keeps each module's 5V-EN jumper:
+  its regulator then drives the module's own +5V net (VLOGIC, ENA, ENB) instead of the supply; up to
+  7 V the supply feeds VS and +5V with the jumper removed.
 - PCA9685 boards (U101..) when wiring.expander = "pca9685": VCC/GND POWER-IN, SDA BIDIR, SCL and
   /OE INPUT, PWM0..15 OUTPUT, V+ (servo power) no-connect.
 
@@ -148,7 +150,7 @@ def _l298n(sk, ckt, k: int):
              ("VLOGIC", T.PWRIN)]
     pins = [sk.Pin(num=i + 1, name=n, func=f) for i, (n, f) in enumerate(names)]
     return _part(sk, ckt, "L298N_module", f"U{k + 1}", "L298N", "whisker:L298N_module_43x43mm", pins,
-                 "L298N dual H-bridge module (VS=+12V terminal, VLOGIC=+5V terminal, 5V-EN jumper off)")
+                 "L298N dual H-bridge module (VS=+12V terminal, VLOGIC=+5V terminal)")
 
 
 def _coil(sk, ckt, i: int, d: Design):

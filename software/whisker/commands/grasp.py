@@ -54,7 +54,7 @@ def cli(design, backend, which, start, level, volts, policy, release_level, hold
     Every coil is switched off at the end, on Ctrl-C, SIGTERM and errors. Example:
 
     \b
-      whisker grasp --config every-second --backend gpio --hold-s 3 --hold-level 0.6
+      whisker grasp --config every-second --backend gpio --hold-s 3 --hold-level 0.35
     """
     from whisker.actuation import deenergise_on_signals, open_actuator, run_sequence
     from whisker.guard import RatingError
