@@ -177,3 +177,31 @@ def test_scene_overrides_from_the_command_line(tmp_path):
     assert bad.returncode != 0 and "contact.patch_radius" in bad.stderr and bad.stderr.strip().count("\n") == 0
     bad = run_cli("sim", str(scene), "--explain", "--scene-set", "nosuch.key=1")
     assert bad.returncode != 0 and "no section 'nosuch'" in bad.stderr
+
+
+def test_each_contact_uses_its_own_pair_friction():
+    """Rods slide with contact.rod_friction, tips grip with the object's friction, the table uses its own:
+    MuJoCo would otherwise take the larger coefficient of the two geoms for every contact."""
+    big = {**BALL, "size": [11.0], "friction": 0.9}      # touches the bare rods first, then slides to the tips
+    s = scene_from_dict({"scene": {"timestep": 0.002}, "objects": [big], "table": {"friction": 0.4},
+                         "contact": {"rod_friction": 0.25},
+                         "experiment": {"kind": "grasp", "placement_noise": 0.0, "yaw_noise": 0.0}})
+    g = paper.grasp_scene(s, s.objects[0], [0, 4], level=paper.grasp_level(D))
+    sim = MjScene(g, D, plan(g, D), BODY)
+    m, d = sim.model, sim.data
+    seen: dict[str, set[float]] = {}
+    levels = np.zeros(8)
+    levels[[0, 4]] = paper.grasp_level(D)
+    times = np.arange(0, 1.2, 0.002)
+    arm = sim.arm_table(times)
+    for k in range(len(times) - 1):
+        sim.advance(levels if times[k] >= paper.T_DOWN else np.zeros(8), arm[k], arm[k + 1], 1)
+        for c in d.contact[:d.ncon]:
+            names = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, c.geom1) or "object",
+                     mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, c.geom2) or "object"}
+            kind = ("table" if "table" in names else "rod" if any(n.startswith("rod") for n in names)
+                    else "tip" if any(n.startswith("tip") for n in names) else "other")
+            seen.setdefault(kind, set()).add(round(float(c.friction[0]), 6))
+    assert seen.get("rod") == {0.25}, seen
+    assert seen.get("tip") == {0.9}, seen
+    assert seen.get("table") == {0.4}, seen

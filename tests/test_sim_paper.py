@@ -114,6 +114,29 @@ def test_grasp_order_strict_weak_and_resolved():
     assert paper.grasp_order([100, 100, 50], ci)["weak"] is True
 
 
+def test_paired_comparisons_count_discordant_attempts_and_test_them():
+    held = [[True] * 10 + [False] * 2, [True] * 4 + [False] * 6 + [True, False], [False] * 12]
+    c = paper.paired_comparisons(held)
+    assert [(x["wins"], x["losses"]) for x in c] == [(6, 1), (5, 0)]
+    assert c[0]["p"] == pytest.approx(8 / 128)          # P(X >= 6), X ~ Bin(7, 1/2)
+    assert c[1]["p"] == pytest.approx(1 / 32)
+    assert paper.paired_comparisons([[True, False], [True, False]])[0] == {"wins": 0, "losses": 0, "p": 1.0}
+    ci = [paper.wilson_interval(sum(h), 12) for h in held]
+    rates = [100 * sum(h) / 12 for h in held]
+    # strict both ways, but 6-1 is not significant: not resolved (disjoint intervals are not required)
+    assert paper.grasp_order(rates, ci, c) == {"strict": True, "weak": True, "resolved": False}
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 30), st.integers(0, 30))
+def test_paired_p_value_falls_with_more_wins(wins, losses):
+    a = [True] * wins + [False] * losses
+    b = [False] * wins + [True] * losses
+    p = paper.paired_comparisons([a, b])[0]["p"]
+    p_more = paper.paired_comparisons([a + [True], b + [False]])[0]["p"]
+    assert 0.0 <= p_more <= p <= 1.0
+
+
 def test_small_grasp_table_has_intervals_and_order(tmp_path):
     """The grasp experiment end to end, tiny (CI): one object, 2 attempts per configuration."""
     s = load_scene(SCENES / "grasp.toml")
@@ -123,5 +146,8 @@ def test_small_grasp_table_has_intervals_and_order(tmp_path):
     assert len(r) == 3 and all(v in (0.0, 50.0, 100.0) for v in r)
     assert all(lo <= v <= hi for v, (lo, hi) in zip(r, tab["ci95"]["mini pinecone"]))
     md = paper.grasp_markdown(tab)
-    assert "95 % CI" in md and "mini pinecone" in md and "Wilson" in md
+    assert "95 % CI" in md and "mini pinecone" in md and "Wilson" in md and "McNemar" in md
+    # every configuration saw the same placements: the paired counts add up to the attempts
+    for c in tab["paired"]["mini pinecone"]:
+        assert 0 <= c["wins"] + c["losses"] <= 2 and 0.0 <= c["p"] <= 1.0
     assert paper.grasp_csv(tab).splitlines()[0].split(",")[3:6] == ["success_pct_sim", "ci95_low_pct", "ci95_high_pct"]

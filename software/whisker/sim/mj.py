@@ -12,6 +12,13 @@ Units inside MuJoCo are SI (m, kg, s); the scene's mm and g are converted here.
   (``[mechanics] tip_friction``). Whiskers do not collide with each other (in the paper they
   cross in the centre when all retract without an object).
 - Objects are free bodies with their mass (g) and friction; the table is a plane at z = 0.
+- Which friction a contact uses: a coefficient belongs to a pair of surfaces, but MuJoCo combines two
+  geoms by taking the larger value unless their ``priority`` differs, when the higher one's parameters
+  are used. Priorities make each pair use its own value: the table, the membrane and the bare rods
+  (2) use theirs against anything (the smooth carbon rod slides on every object, the paper's
+  "slippage between the whisker rods and the objects"); an object (1) uses its ``friction``, its
+  coefficient against the sand-coated tips, when a tip (0) touches it; tip against nothing else.
+  Without this, an object's tip-pair value would also apply along the bare rods.
 - The coil torque (whisker.sim.kinematics.magnetic_torque at the current tilt) is applied each
   step through ``qfrc_applied``; gravity is MuJoCo's.
 
@@ -65,7 +72,7 @@ def _fr(scene, mu: float) -> str:
     Torsional: (2/3) mu a for a disc of radius a = ``contact.patch_radius`` under uniform pressure
     (the friction torque of a flat circular contact, e.g. Johnson, Contact Mechanics, sec. 7.3 /
     any text on pivot friction). Rolling: 0.0001 m, MuJoCo's default (used only with condim 6).
-    MuJoCo takes the larger value of the two geoms of a contact.
+    Which geom's triplet a contact uses is set by the geoms' ``priority`` (module docstring).
     """
     return f"{mu:g} {2.0 / 3.0 * mu * scene.contact.patch_radius * MM:.9g} 0.0001"
 
@@ -97,7 +104,7 @@ def build_mjcf(scene, design, body) -> str:
     out.append('<worldbody>')
     if scene.table.enabled:
         out.append(f'<geom name="table" type="plane" size="1 1 0.01" friction="{_fr(scene, scene.table.friction)}" '
-                   'contype="1" conaffinity="3"/>')
+                   'contype="1" conaffinity="3" priority="2"/>')
     out.append('<body name="arm" gravcomp="1"><inertial pos="0 0 0" mass="100" diaginertia="1 1 1"/>'
                '<joint name="ax" type="slide" axis="1 0 0"/><joint name="ay" type="slide" axis="0 1 0"/>'
                '<joint name="az" type="slide" axis="0 0 1"/><joint name="ayaw" type="hinge" axis="0 0 1"/>')
@@ -105,7 +112,7 @@ def build_mjcf(scene, design, body) -> str:
     # the membrane face: objects cannot pass through the sensor
     out.append(f'<geom name="membrane" type="cylinder" size="{design.membrane.inscribed_radius * MM:.9g} '
                f'{design.membrane.thickness / 2 * MM:.9g}" pos="0 0 {design.pivot_z * MM:.9g}" '
-               f'contype="2" conaffinity="0" friction="{_fr(scene, 0.5)}" mass="0"/>')
+               f'contype="2" conaffinity="0" friction="{_fr(scene, 0.5)}" mass="0" priority="2"/>')
     for i, a in enumerate(design.whisker_angles_deg):
         ar = math.radians(a)
         cx, cy = math.cos(ar), math.sin(ar)
@@ -118,7 +125,7 @@ def build_mjcf(scene, design, body) -> str:
         out.append(f'<joint name="t{i}" type="hinge" axis="{_f([-cx, -cy, 0])}" stiffness="{body.stiffness:.9g}" solreflimit="{2 * scene.scene.timestep:.9g} 1" '
                    f'damping="{body.damping:.9g}" range="{-stop:.9g} {stop:.9g}" limited="true"/>')
         out.append(f'<geom name="rod{i}" type="capsule" fromto="0 0 {-body.rod_bottom_m:.9g} 0 0 {body.rod_top_m - coat:.9g}" '
-                   f'size="{r:.9g}" friction="{_fr(scene, c.rod_friction)}" contype="2" conaffinity="0" mass="0"/>')
+                   f'size="{r:.9g}" friction="{_fr(scene, c.rod_friction)}" contype="2" conaffinity="0" mass="0" priority="2"/>')
         out.append(f'<geom name="tip{i}" type="capsule" fromto="0 0 {body.rod_top_m - coat:.9g} 0 0 {body.rod_top_m:.9g}" '
                    f'size="{r * c.tip_radius_factor:.9g}" friction="{_fr(scene, mu_tip)}" contype="2" conaffinity="0" mass="0"/>')
         out.append('</body>')
@@ -136,7 +143,7 @@ def build_mjcf(scene, design, body) -> str:
 def _object_xml(scene, o) -> str:
     yaw = math.radians(o.yaw)
     q = [math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
-    fr = f'friction="{_fr(scene, o.friction)}" contype="1" conaffinity="3"'
+    fr = f'friction="{_fr(scene, o.friction)}" contype="1" conaffinity="3" priority="1"'
     if o.shape == "mesh":
         g = f'<geom type="mesh" mesh="mesh:{o.name}" mass="{o.mass * 1e-3:.9g}" {fr}/>'
         z = -_mesh_bounds(scene, o)[0][2] * o.size[0] * MM      # its lowest point rests on the table

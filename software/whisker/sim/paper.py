@@ -100,17 +100,35 @@ class Attempt:
     result: object = None
 
 
-def grasp_attempt(scene, design, obj, active, rng, *, keep=False, release=False, body=None) -> Attempt:
-    from whisker.sim.effects import plan
-    from whisker.sim.simulate import simulate
+@dataclass(frozen=True)
+class Placement:
+    """Where one attempt puts the object: offset (mm) from the sensor axis, object and sensor yaw (deg)."""
+    dx: float = 0.0
+    dy: float = 0.0
+    obj_yaw: float = 0.0
+    sensor_yaw: float = 0.0
 
+
+def draw_placement(scene, design, rng) -> Placement:
+    """The object's (x, y) ~ N(0, placement_noise^2) per axis, its yaw uniform in +-yaw_noise, the
+    sensor's yaw uniform over one whisker spacing."""
     e = scene.experiment
     dx, dy = rng.normal(0.0, e.placement_noise, 2) if e.placement_noise > 0 else (0.0, 0.0)
     oyaw = rng.uniform(-e.yaw_noise, e.yaw_noise)
     n = design.whiskers.count
-    syaw = rng.uniform(-180.0 / n, 180.0 / n)
-    s = grasp_scene(scene, obj, active, dx=dx, dy=dy, obj_yaw=oyaw, sensor_yaw=syaw, release=release,
-                    level=grasp_level(design))
+    return Placement(float(dx), float(dy), float(oyaw), float(rng.uniform(-180.0 / n, 180.0 / n)))
+
+
+def grasp_attempt(scene, design, obj, active, rng, *, keep=False, release=False, body=None,
+                  placement: Placement | None = None) -> Attempt:
+    """One attempt at `placement` (default: drawn from `rng`, see :func:`draw_placement`)."""
+    from whisker.sim.effects import plan
+    from whisker.sim.simulate import simulate
+
+    e = scene.experiment
+    pl = placement if placement is not None else draw_placement(scene, design, rng)
+    s = grasp_scene(scene, obj, active, dx=pl.dx, dy=pl.dy, obj_yaw=pl.obj_yaw, sensor_yaw=pl.sensor_yaw,
+                    release=release, level=grasp_level(design))
     p = plan(s, design)
     if not p.built("contact"):
         raise SceneError(f"grasp: object {obj.name!r} is out of reach of the whiskers")
@@ -125,7 +143,11 @@ def grasp_attempt(scene, design, obj, active, rng, *, keep=False, release=False,
 
 
 def grasp_table(scene: Scene, design, progress=None) -> dict:
-    """Success rate (%) per object and configuration, with the paper's numbers beside them."""
+    """Success rate (%) per object and configuration, with the paper's numbers beside them.
+
+    Every configuration of an object sees the same placements (common random numbers), so the
+    differences between the columns come from the configurations, not from different draws.
+    """
     from whisker.sim.kinematics import whisker_body
 
     e = scene.experiment
@@ -136,17 +158,19 @@ def grasp_table(scene: Scene, design, progress=None) -> dict:
     body = whisker_body(design)
     rates: dict[str, list[float]] = {}
     lifts: dict[str, list[list[float]]] = {}
+    held: dict[str, list[list[bool]]] = {}
     total = len(objs) * len(cfgs) * e.attempts
     done = 0
     for oi, o in enumerate(objs):
         rates[o.name] = []
         lifts[o.name] = []
-        for ci, cfg in enumerate(cfgs):
-            rng = np.random.default_rng([scene.scene.seed, oi, ci])
+        rng = np.random.default_rng([scene.scene.seed, oi])
+        places = [draw_placement(scene, design, rng) for _ in range(e.attempts)]
+        for cfg in cfgs:
             ok = []
             ls = []
-            for _ in range(e.attempts):
-                a = grasp_attempt(scene, design, o, cfg, rng, body=body)
+            for pl in places:
+                a = grasp_attempt(scene, design, o, cfg, None, body=body, placement=pl)
                 ok.append(a.success)
                 ls.append(a.lift_mm)
                 done += 1
@@ -154,12 +178,30 @@ def grasp_table(scene: Scene, design, progress=None) -> dict:
                     progress(done / total)
             rates[o.name].append(100.0 * float(np.mean(ok)))
             lifts[o.name].append(ls)
+            held.setdefault(o.name, []).append(ok)
     totals = [float(np.mean([rates[o.name][c] for o in objs])) for c in range(len(cfgs))]
     n = e.attempts
     ci95 = {name: [wilson_interval(round(v / 100 * n), n) for v in r] for name, r in rates.items()}
     return {"configurations": cfgs, "rates": rates, "ci95": ci95, "totals": totals, "attempts": n,
             "objects": {o.name: o.mass for o in objs}, "lifts_mm": lifts,
-            "order": {name: grasp_order(r, ci95[name]) for name, r in rates.items()}}
+            "paired": {name: paired_comparisons(h) for name, h in held.items()},
+            "order": {name: grasp_order(r, ci95[name], paired_comparisons(held[name])) for name, r in rates.items()}}
+
+
+def paired_comparisons(held: list[list[bool]]) -> list[dict]:
+    """For each neighbouring pair of configurations (more whiskers first) over the same placements:
+    ``wins`` (the larger one holds, the smaller drops), ``losses`` (the reverse) and the exact one-sided
+    McNemar p-value, P(wins >= observed | wins ~ Binomial(wins + losses, 1/2)) (McNemar 1947; the
+    exact binomial form, e.g. Agresti, Categorical Data Analysis, sec. 10.1)."""
+    from scipy.stats import binomtest
+
+    out = []
+    for a, b in zip(held, held[1:]):
+        wins = sum(1 for x, y in zip(a, b) if x and not y)
+        losses = sum(1 for x, y in zip(a, b) if y and not x)
+        p = binomtest(wins, wins + losses, 0.5, alternative="greater").pvalue if wins + losses else 1.0
+        out.append({"wins": wins, "losses": losses, "p": float(p)})
+    return out
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
@@ -178,20 +220,26 @@ def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float,
     return (min(lo, 100 * p), max(hi, 100 * p))
 
 
-def grasp_order(rates: list[float], ci95: list[tuple[float, float]]) -> dict:
+def grasp_order(rates: list[float], ci95: list[tuple[float, float]], paired: list[dict] | None = None) -> dict:
     """Does the success rate fall strictly with fewer whiskers (configurations in the given order)?
-    ``strict``: every neighbouring pair strictly ordered; ``weak``: >=; ``resolved``: strictly, and
-    each pair's 95 % intervals do not overlap (the difference is not an accident of the attempts)."""
+    ``strict``: every neighbouring pair strictly ordered; ``weak``: >=; ``resolved``: strictly, and each
+    pair's difference is significant: the exact McNemar p < 0.05 on the paired attempts when `paired` is
+    given (:func:`paired_comparisons`), else disjoint 95 % intervals."""
     pairs = list(zip(rates, rates[1:]))
-    cis = list(zip(ci95, ci95[1:]))
+    if paired is not None:
+        sig = [c["p"] < 0.05 for c in paired]
+    else:
+        sig = [ca[0] > cb[1] for ca, cb in zip(ci95, ci95[1:])]
     return {"strict": all(a > b for a, b in pairs), "weak": all(a >= b for a, b in pairs),
-            "resolved": all(a > b and ca[0] > cb[1] for (a, b), (ca, cb) in zip(pairs, cis))}
+            "resolved": all(a > b and ok for (a, b), ok in zip(pairs, sig))}
 
 
 def grasp_markdown(tab: dict) -> str:
     cfgs = tab["configurations"]
     head = " | ".join(f"{len(c)} whiskers sim [95 % CI] / paper" for c in cfgs)
-    lines = [f"| object (mass) | {head} | 8 > 4 > 2 |", "| --- |" + " --- |" * (len(cfgs) + 1)]
+    pair_head = " | ".join(f"{len(a)} vs {len(b)}: wins-losses (p)" for a, b in zip(cfgs, cfgs[1:]))
+    lines = [f"| object (mass) | {head} | {pair_head} | order |",
+             "| --- |" + " --- |" * (2 * len(cfgs))]
     for name, r in tab["rates"].items():
         paper = PAPER_GRASP.get(name)
         cells = []
@@ -199,15 +247,18 @@ def grasp_markdown(tab: dict) -> str:
             p = f"{paper[ci]}" if paper and ci < 3 and len(cfgs) == 3 else "-"
             lo, hi = tab["ci95"][name][ci]
             cells.append(f"{v:.0f} [{lo:.0f}-{hi:.0f}] / {p}")
+        cells += [f"{c['wins']}-{c['losses']} ({c['p']:.2g})" for c in tab["paired"][name]]
         o = tab["order"][name]
         verdict = ("-" if len(r) < 2 else "strict, resolved" if o["resolved"] else "strict" if o["strict"]
                    else "tie" if o["weak"] else "no")
         lines.append(f"| {name} ({tab['objects'][name]:g} g) | " + " | ".join(cells) + f" | {verdict} |")
     tot = [f"{v:.0f} / {PAPER_GRASP_TOTAL[ci] if len(cfgs) == 3 else '-'}" for ci, v in enumerate(tab["totals"])]
-    lines.append("| total | " + " | ".join(tot) + " | |")
-    return "\n".join(lines) + (f"\n\n{tab['attempts']} simulated attempts per cell (sim %, Wilson 95 % interval) "
-                               "beside the paper's 20 (paper %). 'resolved': strictly ordered with disjoint "
-                               "intervals.\n")
+    lines.append("| total | " + " | ".join(tot) + " |" + " |" * len(cfgs))
+    return "\n".join(lines) + (
+        f"\n\n{tab['attempts']} simulated attempts per cell (sim %, Wilson 95 % interval) beside the paper's 20 "
+        "(paper %). Every configuration sees the same placements; 'wins-losses': attempts the larger "
+        "configuration holds and the smaller drops, and the reverse; p: exact one-sided McNemar test. "
+        "'resolved': strictly ordered and every p < 0.05.\n")
 
 
 def grasp_csv(tab: dict) -> str:

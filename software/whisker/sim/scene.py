@@ -146,7 +146,9 @@ class SceneObject(_S):
     size: list[float] = Field(description="mm: sphere [r]; ellipsoid/box [a, b, c] half-sizes; "
                                           "cylinder/capsule [r, half-length]; mesh [scale]")
     mass: float = Field(gt=0, le=5000, description="g")
-    friction: float = Field(0.5, ge=0, le=10, description="Coulomb coefficient")
+    friction: float = Field(0.5, ge=0, le=10, description=(
+        "Coulomb coefficient against the sand-coated whisker tips (the bare rods use "
+        "contact.rod_friction, the table table.friction; whisker.sim.mj)"))
     pos: list[float] = Field(default_factory=lambda: [0.0, 0.0], description="[x, y] mm on the table")
     yaw: float = Field(0.0, description="deg about the vertical")
     mesh: str = Field("", description="mesh file (STL/OBJ), relative to the scene file")
@@ -273,7 +275,10 @@ class ContactSpec(_S):
         "(2/3) mu a (uniform pressure on a disc); default the coated tip's radius (0.5 mm rod x 1.2), "
         "MuJoCo's own default (5 mm in SI units) would be a patch 8x wider than the tip"))
     cone: Literal["pyramidal", "elliptic"] = "elliptic"
-    impratio: float = Field(10.0, ge=1, le=100, description="MuJoCo friction-to-normal impedance ratio")
+    impratio: float = Field(3.0, ge=1, le=100, description=(
+        "MuJoCo friction-to-normal impedance ratio: larger = harder friction (less creep of a held object) "
+        "and more solver iterations; 3 is nearest the fine reference at half the cost of 10 "
+        "(benchmarks/results/sim.md)"))
     integrator: Literal["Euler", "implicitfast", "implicit", "RK4"] = "implicitfast"
     solref_timeconst: float = Field(0.004, gt=0, le=1, description="s, contact stiffness time constant")
     chunk: int = Field(5, ge=1, le=1000, description="MuJoCo steps between Python updates (path velocity, "
