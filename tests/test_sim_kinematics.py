@@ -159,3 +159,27 @@ def test_heating_effect_warms_the_coil_and_weakens_the_pull():
     assert hot.plan.built("heating") and not cold.plan.built("heating")
     assert hot.temperature_C[-1].min() - hot.temperature_C[0].max() > 5.0      # K
     assert hot.theta_deg[-1, 0, 0] < cold.theta_deg[-1, 0, 0] - 0.05            # hotter coil, less current
+
+
+def test_pwm_heating_follows_the_rms_current_like_the_guard():
+    """A coil held at duty d heats with I_rms = sqrt(d) x V_fs / R (whisker.guard's definition), not
+    with the mean current d x V_fs / R that sets the force: the sim and the guard agree on the rise."""
+    from whisker.guard import full_scale_voltage
+    from whisker.sim.contract import coil_thermal, pwm_rms_current_A
+
+    d = D
+    level, t_end = 0.5, 1.0
+    s = scene_from_dict({"scene": {"duration": t_end, "timestep": 1e-3}, "sensor": {"facing": "down"},
+                         "actuation": {"schedule": [{"t": 0.0, "level": level}, {"t": 0.01, "level": level}]},
+                         "fidelity": {"heating": "on"}})
+    r = simulate(s, d)
+    th = coil_thermal(d)
+    T = float(th.ambient_C)
+    h = s.fidelity.heating_interval
+    for _ in range(int(round(t_end / h))):
+        i_peak = float(current_A(d, full_scale_voltage(d), T))
+        T = th.step(T, math.sqrt(level) * i_peak, h)
+    assert r.temperature_C[-1, 0] == pytest.approx(T, abs=0.05 * (T - th.ambient_C))
+    # mean-current heating would be d times smaller in power: clearly below
+    assert pwm_rms_current_A(np.array([0.2]), np.array([0.25]))[0] == pytest.approx(0.4)
+    assert pwm_rms_current_A(np.array([0.0, 0.3]), np.array([0.0, 1.0])).tolist() == [0.0, 0.3]

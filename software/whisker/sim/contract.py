@@ -35,6 +35,15 @@ def current_A(design, volts, temperature_C=20.0) -> np.ndarray:
     return np.asarray(m.current_A(design, volts, temperature_C), dtype=float)
 
 
+def pwm_rms_current_A(mean_current_A, levels) -> np.ndarray:
+    """The current that heats a PWM-driven coil, A: RMS = sqrt(|d|) x peak = |mean| / sqrt(|d|) at duty
+    d = level (the coil's L/R is far shorter than the PWM period). Force follows the mean current, heat
+    the RMS one, as in whisker.guard (module doc); 0 where the level is 0."""
+    i = np.abs(np.asarray(mean_current_A, dtype=float))
+    d = np.abs(np.asarray(levels, dtype=float))
+    return np.where(d > 0, i / np.sqrt(np.where(d > 0, d, 1.0)), 0.0)
+
+
 def copper_mass_g(design) -> float:
     """Copper mass of one coil (g), from the winding (whisker.coil)."""
     m = _mod("whisker.coil", "the whisker inertia")

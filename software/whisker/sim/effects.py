@@ -151,12 +151,13 @@ def objects_in_reach(scene: Scene, design, margin_mm: float = 1.0) -> list[str]:
 
 
 def predicted_rise_K(scene: Scene, design) -> float:
-    """Largest coil temperature rise the schedule would cause (whisker.thermal), K.
+    """Largest coil temperature rise the schedule would cause (whisker.thermal, heated by the PWM's RMS
+    current), K.
 
     The schedule is piecewise constant, so each coil is stepped once per segment (CoilThermal.step
     sub-steps internally).
     """
-    from whisker.sim.contract import coil_thermal, current_A
+    from whisker.sim.contract import coil_thermal, current_A, pwm_rms_current_A
 
     duration = scene.scene.duration
     if duration <= 0:
@@ -174,7 +175,7 @@ def predicted_rise_K(scene: Scene, design) -> float:
         if not np.any(lv):
             T = np.array([th.step(float(T[i]), 0.0, b - a) for i in range(n)])
             continue
-        I = np.abs(np.atleast_1d(current_A(design, np.abs(lv) * volts, T)))
+        I = pwm_rms_current_A(np.atleast_1d(current_A(design, np.abs(lv) * volts, T)), lv)
         T = np.array([th.step(float(T[i]), float(I[i]), b - a) for i in range(n)])
         peak = max(peak, float(np.max(T - T0)))
     return peak

@@ -77,6 +77,7 @@ class Drive:
         self._I = np.zeros(n)
         self._heat_acc = 0.0
         self._heat_I = np.zeros(n)
+        self._levels = np.zeros(n)
         self._lut = None
         if self.on and body is not None and scene.fidelity.magnetics_lookup > 0:
             from whisker.sim.contract import force_per_ampere_N
@@ -89,16 +90,20 @@ class Drive:
         if not self.on:
             return np.zeros_like(levels)
         key = levels.tobytes()
+        self._levels = levels
         if key != self._key:
             self._I = np.asarray(current_A(self.design, levels * self.volts, self.T), dtype=float)
             self._key = key
         return self._I
 
     def heat(self, I: np.ndarray, dt: float) -> None:
+        """Advance the coil temperatures by `dt` s with the mean currents `I` of the current levels
+        (heating follows the PWM's RMS current, whisker.sim.contract.pwm_rms_current_A)."""
         if self.thermal is None:
             return
+        from whisker.sim.contract import pwm_rms_current_A
         self._heat_acc += dt
-        self._heat_I = I
+        self._heat_I = pwm_rms_current_A(I, self._levels)
         if self._heat_acc >= self.scene.fidelity.heating_interval - 1e-12:
             self.T = np.array([self.thermal.step(float(T), float(abs(i)), self._heat_acc)
                                for T, i in zip(self.T, self._heat_I)])
