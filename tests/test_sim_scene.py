@@ -186,3 +186,25 @@ def test_level_one_is_the_full_scale_coil_voltage():
 def test_camera_tracks_with_roi_unless_the_scene_asks():
     assert scene_from_dict({"camera": {"enabled": True}}).camera.method == "roi"
     assert scene_from_dict({"camera": {"enabled": True, "method": "paper"}}).camera.method == "paper"
+
+
+def test_objects_from_shares_one_definition_of_the_paper_objects(tmp_path):
+    from whisker.sim import load_scene
+
+    scenes = ROOT / "software" / "whisker" / "sim" / "scenes"
+    grasp, disp = load_scene(scenes / "grasp.toml"), load_scene(scenes / "displacement.toml")
+    g = {o.name: o for o in grasp.objects}
+    assert len(g) == 5 and all(g[o.name] == o for o in disp.objects)       # the same objects, not copies
+    assert disp.experiment.objects == ["foam ball", "mini pinecone"]
+    # a scene adds its own objects after the shared ones; a bad reference is refused in one line
+    (tmp_path / "objs.toml").write_text('[[objects]]\nname = "a"\nshape = "sphere"\nsize = [5.0]\nmass = 1.0\n')
+    (tmp_path / "s.toml").write_text('objects_from = "objs.toml"\n[[objects]]\nname = "b"\nshape = "sphere"\n'
+                                     'size = [4.0]\nmass = 0.5\n')
+    assert [o.name for o in load_scene(tmp_path / "s.toml").objects] == ["a", "b"]
+    (tmp_path / "bad.toml").write_text('objects_from = "missing.toml"\n')
+    with pytest.raises(SceneError, match="objects_from: no such file"):
+        load_scene(tmp_path / "bad.toml")
+    (tmp_path / "empty.toml").write_text('x = 1\n')
+    (tmp_path / "e.toml").write_text('objects_from = "empty.toml"\n')
+    with pytest.raises(SceneError, match="has no"):
+        load_scene(tmp_path / "e.toml")

@@ -271,10 +271,10 @@ def plan(scene: Scene, design) -> Plan:
         contact, why = True, "fidelity.contact = 'on' (full model)"
     elif ex in ("grasp", "displacement", "classification") and scene.objects:
         contact, why = True, (f"the {ex} experiment brings the tips to the objects: MuJoCo capsule whiskers "
-                              f"(tip friction {mech.tip_friction:g}), bodies, friction, gravity")
+                              f"(tips grip with each object's friction, bare rods {scene.contact.rod_friction:g}), bodies, gravity")
     elif reachable:
         contact, why = True, (f"object(s) {', '.join(reachable)} within reach of the tips: MuJoCo capsule "
-                              f"whiskers (tip friction {mech.tip_friction:g}), bodies, friction, gravity")
+                              f"whiskers (tips grip with each object's friction, bare rods {scene.contact.rod_friction:g}), bodies, gravity")
     elif scene.objects:
         contact, why = False, (f"object(s) {', '.join(o.name for o in scene.objects)} out of reach of the "
                                f"tips along the path")

@@ -8,8 +8,7 @@ Units inside MuJoCo are SI (m, kg, s); the scene's mm and g are converted here.
   about -r: the same universal joint as whisker.sim.kinematics), with the membrane as joint
   stiffness/damping, the inertia of :class:`~whisker.sim.kinematics.WhiskerBody` given explicitly
   (so both models carry the same mass data), a hard stop as the joint range, and geoms: a capsule
-  rod (``contact.rod_friction``) and a sand-coated tip capsule over ``contact.tip_coating`` mm
-  (``[mechanics] tip_friction``). Whiskers do not collide with each other (in the paper they
+  rod (``contact.rod_friction``) and a sand-coated tip capsule over ``contact.tip_coating`` mm. Whiskers do not collide with each other (in the paper they
   cross in the centre when all retract without an object).
 - Objects are free bodies with their mass (g) and friction; the table is a plane at z = 0.
 - Which friction a contact uses: a coefficient belongs to a pair of surfaces, but MuJoCo combines two
@@ -17,8 +16,8 @@ Units inside MuJoCo are SI (m, kg, s); the scene's mm and g are converted here.
   are used. Priorities make each pair use its own value: the table, the membrane and the bare rods
   (2) use theirs against anything (the smooth carbon rod slides on every object, the paper's
   "slippage between the whisker rods and the objects"); an object (1) uses its ``friction``, its
-  coefficient against the sand-coated tips, when a tip (0) touches it; tip against nothing else.
-  Without this, an object's tip-pair value would also apply along the bare rods.
+  coefficient against the sand-coated tips (default ``[mechanics] tip_friction``), when a tip (0)
+  touches it. Without this, an object's tip-pair value would also apply along the bare rods.
 - The coil torque (whisker.sim.kinematics.magnetic_torque at the current tilt) is applied each
   step through ``qfrc_applied``; gravity is MuJoCo's.
 
@@ -131,7 +130,7 @@ def build_mjcf(scene, design, body) -> str:
         out.append('</body>')
     out.append('</body></body>')
     for o in scene.objects:
-        out.append(_object_xml(scene, o))
+        out.append(_object_xml(scene, o, design))
     out.append('</worldbody><actuator>')
     for i in range(n):
         out.append(f'<general name="m{i}" joint="r{i}" gaintype="affine" gainprm="0 0 0" biastype="none" '
@@ -140,10 +139,15 @@ def build_mjcf(scene, design, body) -> str:
     return "\n".join(out)
 
 
-def _object_xml(scene, o) -> str:
+def object_friction(o, design) -> float:
+    """An object's Coulomb coefficient against the sand-coated tips: its own, else the design's."""
+    return design.mechanics.tip_friction if o.friction is None else o.friction
+
+
+def _object_xml(scene, o, design) -> str:
     yaw = math.radians(o.yaw)
     q = [math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
-    fr = f'friction="{_fr(scene, o.friction)}" contype="1" conaffinity="3" priority="1"'
+    fr = f'friction="{_fr(scene, object_friction(o, design))}" contype="1" conaffinity="3" priority="1"'
     if o.shape == "mesh":
         g = f'<geom type="mesh" mesh="mesh:{o.name}" mass="{o.mass * 1e-3:.9g}" {fr}/>'
         z = -_mesh_bounds(scene, o)[0][2] * o.size[0] * MM      # its lowest point rests on the table

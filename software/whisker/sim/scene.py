@@ -146,9 +146,10 @@ class SceneObject(_S):
     size: list[float] = Field(description="mm: sphere [r]; ellipsoid/box [a, b, c] half-sizes; "
                                           "cylinder/capsule [r, half-length]; mesh [scale]")
     mass: float = Field(gt=0, le=5000, description="g")
-    friction: float = Field(0.5, ge=0, le=10, description=(
-        "Coulomb coefficient against the sand-coated whisker tips (the bare rods use "
-        "contact.rod_friction, the table table.friction; whisker.sim.mj)"))
+    friction: float | None = Field(None, ge=0, le=10, description=(
+        "Coulomb coefficient against the sand-coated whisker tips; default the design's "
+        "[mechanics] tip_friction (the bare rods use contact.rod_friction, the table table.friction; "
+        "whisker.sim.mj)"))
     pos: list[float] = Field(default_factory=lambda: [0.0, 0.0], description="[x, y] mm on the table")
     yaw: float = Field(0.0, description="deg about the vertical")
     mesh: str = Field("", description="mesh file (STL/OBJ), relative to the scene file")
@@ -266,7 +267,7 @@ class Fidelity(_S):
 class ContactSpec(_S):
     """MuJoCo contact settings (the contact effect); defaults chosen in benchmarks/results/sim.md."""
     rod_friction: float = Field(0.3, ge=0, le=10, description="Coulomb coefficient of the bare carbon rod "
-                                                              "(estimate; the tips use [mechanics] tip_friction)")
+                                                              "(estimate; against the tips an object uses its own friction)")
     tip_coating: float = Field(5.0, gt=0, description="mm of sand coating at the tip")
     tip_radius_factor: float = Field(1.2, ge=1, le=5, description="coated tip radius / rod radius")
     condim: Literal[1, 3, 4, 6] = Field(4, description="MuJoCo contact dimensionality (4: + torsional friction)")
@@ -357,10 +358,25 @@ def scene_from_dict(data: dict[str, Any]) -> Scene:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene TOML file. Raises :class:`SceneError` (one line) when it is bad."""
+    """Read and validate a scene TOML file. Raises :class:`SceneError` (one line) when it is bad.
+
+    A top-level ``objects_from = "FILE.toml"`` (relative to the scene) reads that file's ``[[objects]]``
+    ahead of the scene's own, so several scenes share one definition of the paper's objects.
+    """
     path = Path(path)
     data = read_toml(path, "scene", SceneError)
     data.setdefault("base_dir", str(path.resolve().parent))
+    src = data.pop("objects_from", None)
+    if src is not None:
+        if not isinstance(src, str) or not src:
+            raise SceneError(f"objects_from: expected a TOML file name (got {src!r})")
+        f = path.resolve().parent / src
+        if not f.is_file():
+            raise SceneError(f"objects_from: no such file {f}")
+        shared = read_toml(f, "objects file", SceneError).get("objects", [])
+        if not isinstance(shared, list) or not shared:
+            raise SceneError(f"objects_from: {f.name} has no [[objects]]")
+        data["objects"] = [*shared, *data.get("objects", [])]
     return scene_from_dict(data)
 
 
