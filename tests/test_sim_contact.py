@@ -177,6 +177,22 @@ def test_scene_overrides_from_the_command_line(tmp_path):
     assert bad.returncode != 0 and "contact.patch_radius" in bad.stderr and bad.stderr.strip().count("\n") == 0
     bad = run_cli("sim", str(scene), "--explain", "--scene-set", "nosuch.key=1")
     assert bad.returncode != 0 and "no section 'nosuch'" in bad.stderr
+    bad = run_cli("sim", str(scene), "--explain", "--scene-set", "objects.marble.friction=1")
+    assert bad.returncode != 0 and "no object named 'marble'" in bad.stderr
+    bad = run_cli("sim", str(scene), "--explain", "--scene-set", "objects.foam ball.friction=-1")
+    assert bad.returncode != 0 and "friction" in bad.stderr and bad.stderr.strip().count("\n") == 0
+
+
+def test_one_object_overridden_by_name():
+    from whisker.sim import load_scene
+    from whisker.sim.scene import scene_with_overrides
+
+    s = load_scene(ROOT / "software" / "whisker" / "sim" / "scenes" / "grasp.toml")
+    t = scene_with_overrides(s, ["objects.foam ball.friction=0.3", "objects.popcorn.mass=0.5"])
+    got = {o.name: o for o in t.objects}
+    assert got["foam ball"].friction == 0.3 and got["popcorn"].mass == 0.5
+    assert [o for o in t.objects if o.name not in ("foam ball", "popcorn")] == \
+        [o for o in s.objects if o.name not in ("foam ball", "popcorn")]
 
 
 def test_each_contact_uses_its_own_pair_friction():

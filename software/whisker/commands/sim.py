@@ -19,8 +19,9 @@ from whisker.cliutil import fail
 @click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE",
               help="Override a design value for this run, e.g. --set mechanics.tip_friction=0.5 (repeatable).")
 @click.option("--scene-set", "scene_sets", multiple=True, metavar="SECTION.KEY=VALUE",
-              help="Override a scene value (TOML syntax), e.g. --scene-set contact.patch_radius=2.5 or "
-                   "--scene-set experiment.placement_noise=3 (repeatable).")
+              help="Override a scene value (TOML syntax), e.g. --scene-set contact.patch_radius=2.5, "
+                   "--scene-set experiment.placement_noise=3 or one object by name: "
+                   "--scene-set 'objects.foam ball.friction=0.3' (repeatable).")
 @click.option("--attempts", type=int, default=None, help="Override experiment.attempts (grasp).")
 @click.option("--trials", type=int, default=None, help="Override experiment.trials (displacement, classification).")
 @click.option("--json", "as_json", is_flag=True, help="With --explain: print the plan as JSON.")

@@ -30,6 +30,15 @@ T_DOWN, T_CLOSE, T_LIFT, T_HOLD, T_RELEASE = 0.3, 0.3, 0.5, 0.4, 0.4
 START_HEIGHT = 15.0   # mm of tip clearance above the object's top at the start
 
 
+def experiment_objects(scene: Scene) -> list:
+    """The objects an experiment uses: ``experiment.objects`` in that order, else all of the scene's."""
+    names = scene.experiment.objects
+    if not names:
+        return list(scene.objects)
+    by_name = {o.name: o for o in scene.objects}
+    return [by_name[n] for n in names]          # the scene validator checked every name
+
+
 def configurations(scene: Scene, design) -> list[list[int]]:
     """Whisker index sets: the scene's, else the paper's all / every second / opposite pair."""
     if scene.experiment.configurations:
@@ -151,7 +160,7 @@ def grasp_table(scene: Scene, design, progress=None) -> dict:
     from whisker.sim.kinematics import whisker_body
 
     e = scene.experiment
-    objs = [o for o in scene.objects if not e.objects or o.name in e.objects]
+    objs = experiment_objects(scene)
     if not objs:
         raise SceneError("grasp experiment: the scene has no objects")
     cfgs = configurations(scene, design)
@@ -283,7 +292,7 @@ def displacement_runs(scene: Scene, design, progress=None) -> dict:
     from whisker.sim.kinematics import whisker_body
 
     e = scene.experiment
-    objs = [o for o in scene.objects if not e.objects or o.name in e.objects]
+    objs = experiment_objects(scene)
     n = design.whiskers.count
     body = whisker_body(design)
     out = {}
@@ -393,7 +402,7 @@ def classification_dataset(scene: Scene, design, progress=None) -> dict[str, np.
     from whisker.sim.kinematics import whisker_body
 
     e = scene.experiment
-    objs = [o for o in scene.objects if not e.objects or o.name in e.objects]
+    objs = experiment_objects(scene)
     if not objs:
         raise SceneError("classification experiment: the scene has no objects")
     body = whisker_body(design)

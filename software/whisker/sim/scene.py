@@ -381,13 +381,22 @@ def load_scene(path: str | Path) -> Scene:
 
 
 def scene_with_overrides(scene: Scene, overrides) -> Scene:
-    """A copy of `scene` with ``section.key=value`` overrides (value in TOML syntax), validated again."""
+    """A copy of `scene` with ``section.key=value`` or ``objects.NAME.key=value`` overrides (value in TOML
+    syntax), validated again."""
     data = scene.model_dump()
     for item in overrides:
         key, sep, text = str(item).partition("=")
         parts = key.strip().split(".")
+        if sep and len(parts) == 3 and parts[0] == "objects" and all(parts):
+            _, name, k = parts                       # objects.<name>.<key>: one object, by name
+            hit = [o for o in data["objects"] if o["name"] == name]
+            if not hit:
+                raise SceneError(f"scene override {item!r}: no object named {name!r} (objects: "
+                                 f"{', '.join(o['name'] for o in data['objects']) or 'none'})")
+            hit[0][k] = parse_value(text.strip())
+            continue
         if not sep or len(parts) != 2 or not all(parts):
-            raise SceneError(f"scene override {item!r}: expected section.key=value")
+            raise SceneError(f"scene override {item!r}: expected section.key=value or objects.NAME.key=value")
         sec, k = parts
         if not isinstance(data.get(sec), dict):
             raise SceneError(f"scene override {item!r}: no section {sec!r} (one of "
