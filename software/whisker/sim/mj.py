@@ -8,8 +8,9 @@ Units inside MuJoCo are SI (m, kg, s); the scene's mm and g are converted here.
   about -r: the same universal joint as whisker.sim.kinematics), with the membrane as joint
   stiffness/damping, the inertia of :class:`~whisker.sim.kinematics.WhiskerBody` given explicitly
   (so both models carry the same mass data), a hard stop as the joint range, and geoms: a capsule
-  rod (``contact.rod_friction``) and a sand-coated tip capsule over ``contact.tip_coating`` mm. Whiskers do not collide with each other (in the paper they
-  cross in the centre when all retract without an object).
+  rod (``contact.rod_friction``) and a sand-coated tip capsule over ``contact.tip_coating`` mm.
+  Whiskers do not collide with each other (in the paper they cross in the centre when all retract
+  without an object).
 - Objects are free bodies with their mass (g) and friction; the table is a plane at z = 0.
 - Which friction a contact uses: a coefficient belongs to a pair of surfaces, but MuJoCo combines two
   geoms by taking the larger value unless their ``priority`` differs, when the higher one's parameters

@@ -173,6 +173,7 @@ def grasp_table(scene: Scene, design, progress=None) -> dict:
     for oi, o in enumerate(objs):
         rates[o.name] = []
         lifts[o.name] = []
+        held[o.name] = []
         rng = np.random.default_rng([scene.scene.seed, oi])
         places = [draw_placement(scene, design, rng) for _ in range(e.attempts)]
         for cfg in cfgs:
@@ -187,14 +188,14 @@ def grasp_table(scene: Scene, design, progress=None) -> dict:
                     progress(done / total)
             rates[o.name].append(100.0 * float(np.mean(ok)))
             lifts[o.name].append(ls)
-            held.setdefault(o.name, []).append(ok)
+            held[o.name].append(ok)
     totals = [float(np.mean([rates[o.name][c] for o in objs])) for c in range(len(cfgs))]
     n = e.attempts
     ci95 = {name: [wilson_interval(round(v / 100 * n), n) for v in r] for name, r in rates.items()}
+    paired = {name: paired_comparisons(h) for name, h in held.items()}
     return {"configurations": cfgs, "rates": rates, "ci95": ci95, "totals": totals, "attempts": n,
-            "objects": {o.name: o.mass for o in objs}, "lifts_mm": lifts,
-            "paired": {name: paired_comparisons(h) for name, h in held.items()},
-            "order": {name: grasp_order(r, ci95[name], paired_comparisons(held[name])) for name, r in rates.items()}}
+            "objects": {o.name: o.mass for o in objs}, "lifts_mm": lifts, "paired": paired,
+            "order": {name: grasp_order(r, ci95[name], paired[name]) for name, r in rates.items()}}
 
 
 def paired_comparisons(held: list[list[bool]]) -> list[dict]:
