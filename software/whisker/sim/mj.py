@@ -3,7 +3,9 @@
 Built only when the plan has ``contact`` (objects within reach, tips on the table, or forced).
 Units inside MuJoCo are SI (m, kg, s); the scene's mm and g are converted here.
 
-- The sensor is a mocap body moved along the scene's path (the UR16e's prescribed motion).
+- The sensor rides on an "arm" of three slides and a yaw hinge whose pose and velocity are set to the
+  scene's path (the UR16e's prescribed motion; a mocap body would move with zero velocity, so
+  friction would not see the lift).
 - Each whisker is a rigid body on two hinges at its pivot (radial tilt about -t, then tangential
   about -r: the same universal joint as whisker.sim.kinematics), with the membrane as joint
   stiffness/damping, the inertia of :class:`~whisker.sim.kinematics.WhiskerBody` given explicitly
@@ -19,11 +21,12 @@ Units inside MuJoCo are SI (m, kg, s); the scene's mm and g are converted here.
   "slippage between the whisker rods and the objects"); an object (1) uses its ``friction``, its
   coefficient against the sand-coated tips (default ``[mechanics] tip_friction``), when a tip (0)
   touches it. Without this, an object's tip-pair value would also apply along the bare rods.
-- The coil torque (whisker.sim.kinematics.magnetic_torque at the current tilt) is applied each
-  step through ``qfrc_applied``; gravity is MuJoCo's.
+- The coil torque (the Drive's torque at the current tilt) is a MuJoCo affine actuator on each
+  whisker's radial hinge, re-linearised about the tilt every ``contact.chunk`` steps; gravity is
+  MuJoCo's.
 
-Reference: MuJoCo XML reference (mocap bodies, hinge stiffness/damping/range, geom friction and
-contype/conaffinity) https://mujoco.readthedocs.io/en/stable/XMLreference.html
+Reference: MuJoCo XML reference (hinge stiffness/damping/range, geom friction, priority and
+contype/conaffinity, general actuators) https://mujoco.readthedocs.io/en/stable/XMLreference.html
 """
 
 from __future__ import annotations
