@@ -4,7 +4,8 @@ A. Thermal guard: the temperature estimate against a tight ODE reference (scipy 
    same coil model, whisker.thermal.CoilThermal) over a grasp-like drive profile, for several guard
    update periods (the watchdog's drive.guard_period), with the time per update.
 B. What the guard means for the paper's coil: time at full level until the cut, the duty cycle
-   under policy "cut", the level "derate" settles at, at the paper's 3 V and at 100 % duty.
+   under policy "cut", the level "derate" settles at, at the paper's 3 V and at 100 % duty, with
+   the design's series resistor and without it (driver.series_resistance=0).
 C. Recording: milliseconds and bytes per 640x480 frame for PNG / JPEG, with and without fsync
    (the crash safety against power loss; SIGKILL alone is survived either way).
 
@@ -25,7 +26,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import best_time_s, machine_line, markdown_table, save_figure, write_csv, write_text  # noqa: E402
 
 from whisker.design import default_design  # noqa: E402
-from whisker.guard import ThermalGuard, full_scale_voltage, volts_to_levels  # noqa: E402
+from whisker.driver import series_resistance_ohm  # noqa: E402
+from whisker.guard import ThermalGuard, coil_current_A, full_scale_voltage, volts_to_levels  # noqa: E402
 from whisker.thermal import CoilThermal  # noqa: E402
 
 
@@ -50,7 +52,8 @@ def reference(design, t_end, t_eval):
 
     def rhs(t, y):
         duty = profile(t)
-        p = duty * vfs ** 2 / float(th.resistance(y[0]))
+        i = coil_current_A(design, vfs, y[0])  # the peak current at T (behind the series resistor, if any)
+        p = duty * i ** 2 * float(th.resistance(y[0]))
         return [(p - float(th.loss_W(y[0]))) / th.heat_capacity_J_per_K]
 
     sol = solve_ivp(rhs, (0, t_end), [th.ambient_C], t_eval=t_eval, rtol=1e-10, atol=1e-10,
@@ -102,12 +105,43 @@ def part_a(design):
     return rows, curves
 
 
+def time_to_C(design, level, target_C):
+    """Seconds for a coil held at `level` to reach target_C from ambient: solve_ivp on the guard's
+    coil model (RMS heating |level| x I(T)^2 R(T), I(T) = whisker.guard.coil_current_A), or inf."""
+    from scipy.integrate import solve_ivp
+
+    th = CoilThermal(design)
+    vfs = full_scale_voltage(design)
+
+    def rhs(t, y):
+        i = coil_current_A(design, vfs, y[0])
+        return [(level * i ** 2 * float(th.resistance(y[0])) - float(th.loss_W(y[0]))) / th.heat_capacity_J_per_K]
+
+    def hit(t, y):
+        return y[0] - target_C
+    hit.terminal = True
+    sol = solve_ivp(rhs, (0, 3600.0), [th.ambient_C], events=hit, rtol=1e-10, atol=1e-10, max_step=0.05)
+    return float(sol.t_events[0][0]) if sol.t_events[0].size else float("inf")
+
+
 def part_b(design):
+    """Both drives of the coil: the design's (default: the 5.1 ohm series resistor) and the bare bridge."""
+    out = []
+    for design_label, d in (("series resistor", design),
+                            ("no resistor", default_design("driver.series_resistance=0"))):
+        out += _part_b_one(d, design_label)
+    return out
+
+
+def _part_b_one(design, design_label):
     out = []
     th = CoilThermal(design)
-    model_t = th.time_to_C(th.limit_C - design.drive.guard_margin, full_scale_voltage(design))
+    vfs = full_scale_voltage(design)
+    rs = series_resistance_ohm(design)
     for label, level in (("3 V (paper)", float(volts_to_levels(design, design.actuation.voltage))),
                          ("100 % duty", 1.0)):
+        i_cold = coil_current_A(design, vfs, 20.0)
+        model_t = time_to_C(design, level, th.limit_C - design.drive.guard_margin)
         for policy in ("cut", "derate"):
             clock = Clock()
             g = ThermalGuard(design, clock=clock, policy=policy)
@@ -123,12 +157,14 @@ def part_b(design):
                     t_first_change = clock.t
             applied = np.array(applied)
             last = applied[len(applied) // 2:]
-            out.append({"drive": label, "level": round(level, 4), "policy": policy,
+            out.append({"series_ohm": rs, "full_scale_V": vfs, "drive": label, "level": round(level, 4),
+                        "coil_W_cold": level * i_cold ** 2 * float(th.resistance(20.0)),
+                        "resistor_W_cold": level * i_cold ** 2 * rs, "policy": policy,
                         "full_level_for_s": t_first_change if t_first_change is not None else float("inf"),
                         "mean_level_after_150s": float(last.mean()),
                         "peak_C": float(g.peak_C[0]), "cut_C": g.cut_C, "limit_C": th.limit_C,
                         "trips": int(g.trips[0]),
-                        "model_time_to_cut_C_at_100pct_s": model_t})
+                        "model_time_to_cut_C_s": model_t})
     return out
 
 
@@ -219,14 +255,21 @@ def main():
         "",
         "## B. What the guard allows the paper's coil (policy cut vs derate, 300 s of continuous request)",
         "",
-        markdown_table(b_rows, ["drive", "level", "policy", "full_level_for_s", "mean_level_after_150s", "peak_C",
-                                "cut_C", "trips"],
-                       {"full_level_for_s": ".2f", "mean_level_after_150s": ".3f", "peak_C": ".1f",
-                        "cut_C": ".0f"}),
+        "Default design (`driver.series_resistance` = auto = "
+        f"{series_resistance_ohm(design):g} ohm in series with each coil) and the same design without the "
+        "resistor (`driver.series_resistance=0`, PWM alone). `coil_W_cold` / `resistor_W_cold`: mean heat in "
+        "the coil / its series resistor at that level, cold (20 C) coil; `model_time_to_cut_C_s`: the coil "
+        "model alone (solve_ivp, the guard's current model) from ambient to the cut-off.",
+        "",
+        markdown_table(b_rows, ["series_ohm", "full_scale_V", "drive", "level", "coil_W_cold", "resistor_W_cold",
+                                "policy", "model_time_to_cut_C_s", "full_level_for_s", "mean_level_after_150s",
+                                "peak_C", "cut_C", "trips"],
+                       {"full_scale_V": ".3f", "coil_W_cold": ".2f", "resistor_W_cold": ".2f",
+                        "model_time_to_cut_C_s": ".2f", "full_level_for_s": ".2f",
+                        "mean_level_after_150s": ".3f", "peak_C": ".1f", "cut_C": ".0f"}),
         "",
         "`full_level_for_s`: seconds at the requested level before the guard first reduces it "
-        f"(the coil model alone, `CoilThermal.time_to_C`, reaches the cut-off in {b_rows[0]['model_time_to_cut_C_at_100pct_s']:.2f} s "
-        "at 100 % duty; the guard, looking one 20 ms update ahead, cuts within one update of it). "
+        "(the guard, looking one 20 ms update ahead, cuts within one update of the model's time). "
         "`mean_level_after_150s`: the average level the guard allows once settled (derate: a steady level; "
         "cut: on/off cycling between the cut-off and the cut-off minus the hysteresis).",
         "",

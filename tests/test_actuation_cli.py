@@ -61,5 +61,6 @@ def test_grasp_mock_phases():
     for phase in ("retract", "hold", "release", "neutral"):
         assert r.stderr.count(f" {phase} ") == 2
     assert "peak coil temperature" in r.stderr
-    # the paper's 3 V at the default 7.5 V supply's 5.24 V full scale (the old 5 V supply gave 0.97)
-    assert "applied=[0.573, 0.0, 0.0, 0.0, 0.573, 0.0, 0.0, 0.0]" in r.stderr
+    # the paper's 3 V at the default 7.5 V supply's 3.22 V full scale behind the 5.1 ohm series
+    # resistor (5.24 V without it gave 0.573, the old 5 V supply 0.97)
+    assert "applied=[0.931, 0.0, 0.0, 0.0, 0.931, 0.0, 0.0, 0.0]" in r.stderr

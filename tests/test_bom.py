@@ -71,10 +71,12 @@ def test_quantities_follow_the_whisker_count(boms):
     assert boms[6]["jumpers"].value == 2 * 6 + 1 + 2
     assert boms[8]["jumpers"].value == 2 * 8 + 1 + 2
     assert boms[12]["jumpers"].value == 2 * 12 + 1 + 2 + 4 * 2
-    # Supply current scales with N: N x 0.748 A (7.5 V - the L298's drop, into 7 ohm) + 0.106 A per module.
-    assert "7.5 V regulated, at least 5 A" in boms[6]["coil_supply"].specification   # 4.81 A
-    assert "7.5 V regulated, at least 7 A" in boms[8]["coil_supply"].specification   # 6.41 A
-    assert "at least 10 A" in boms[12]["coil_supply"].specification                  # 9.62 A
+    # Supply current scales with N: N x 0.460 A (7.5 V - the L298's drop, into 5.1 ohm series + 7 ohm coil)
+    # + 0.106 A per module; one series resistor per coil.
+    assert "7.5 V regulated, at least 4 A" in boms[6]["coil_supply"].specification   # 3.08 A
+    assert "7.5 V regulated, at least 5 A" in boms[8]["coil_supply"].specification   # 4.11 A
+    assert "at least 7 A" in boms[12]["coil_supply"].specification                   # 6.16 A
+    assert all(boms[n]["series_resistor"].value == n for n in boms)
 
 
 def test_material_quantities_come_from_cad_volumes():
@@ -112,13 +114,15 @@ def test_led_strip_runs_from_the_pis_5V_not_the_coil_supply():
 @settings(max_examples=20, deadline=None)
 @given(vs=st.floats(4.0, 20.0), n=st.integers(1, 11), r=st.floats(3.0, 30.0))
 def test_supply_current_is_every_coil_fully_on(vs, n, r):
-    """I = N (Vs - V0) / (R + r_bridge) (L298N typ: V0 = 1.40 V, r = 1.15 ohm) + ceil(N/2) x 0.106 A,
-    below the no-drop bound N Vs / R plus the quiescent current, and the BOM rounds it up."""
+    """I = N (Vs - V0) / (R + Rs + r_bridge) (L298N typ: V0 = 1.40 V, r = 1.15 ohm; Rs the series
+    resistor, driver.series_resistance) + ceil(N/2) x 0.106 A, below the no-drop bound N Vs / R plus the
+    quiescent current, and the BOM rounds it up."""
     from whisker.bom import supply_current_A
+    from whisker.driver import series_resistance_ohm
 
     d = default_design(f"driver.supply_voltage={vs!r}", f"whiskers.count={n}", f"coil.resistance={r!r}")
     i = supply_current_A(d)
-    expect = n * (vs - 1.40) / (r + 1.15) + math.ceil(n / 2) * 0.106
+    expect = n * (vs - 1.40) / (r + series_resistance_ohm(d) + 1.15) + math.ceil(n / 2) * 0.106
     assert i == pytest.approx(expect, rel=1e-9)
     assert i < n * vs / r + math.ceil(n / 2) * 0.106
     spec = _by_item(bom_rows(d, _fake_volumes(), CoilWire(1000.0, "test")))["coil_supply"].specification

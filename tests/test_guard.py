@@ -17,6 +17,9 @@ from whisker.guard import (RatingError, ThermalGuard, check_driver, check_levels
                            max_level, volts_to_levels)
 
 
+NO_RESISTOR = "driver.series_resistance=0"  # the bare bridge: the numbers before the series resistor
+
+
 @pytest.fixture(scope="module")
 def design():
     return default_design()
@@ -250,9 +253,10 @@ def test_allowed_never_exceeds_request(levels, temp):
         assert np.all(a == 0)
 
 
-def test_full_scale_voltage_from_driver_model_or_measured(design):
+def test_full_scale_voltage_from_driver_model_or_measured():
     from whisker import driver
 
+    design = default_design(NO_RESISTOR)  # the bare bridge (tests/test_series_resistor.py: with one)
     br = driver.bridge(design.driver.type)
     i = driver.coil_current_A(br, design.driver.supply_voltage, design.coil.resistance)
     assert full_scale_voltage(design) == pytest.approx(i * design.coil.resistance)
@@ -260,15 +264,16 @@ def test_full_scale_voltage_from_driver_model_or_measured(design):
     assert 4.9 < full_scale_voltage(design) < 5.5
     assert full_scale_voltage(default_design("drive.full_scale_voltage=3.2")) == 3.2
     with pytest.raises(RatingError, match="below the L298N's drop"):
-        full_scale_voltage(default_design("driver.supply_voltage=1.0"))
+        full_scale_voltage(default_design("driver.supply_voltage=1.0", NO_RESISTOR))
 
 
 # ---- the default supply (driver.supply_voltage = 7.5 V) ------------------------------------------
 
-def test_default_supply_limits_level_and_reaches_the_papers_3V(design):
-    """7.5 V into an L298N: 5.24 V at the coil at level 1, so level 1 is refused, the paper's 3 V is a
+def test_default_supply_limits_level_and_reaches_the_papers_3V():
+    """Without the series resistor (driver.series_resistance = 0): 7.5 V into an L298N: 5.24 V at the coil at level 1, so level 1 is refused, the paper's 3 V is a
     level below 1 and the rating's 3.3 V is the largest level (whisker.driver typ drop 1.40 V +
     1.15 ohm x I: I = (7.5 - 1.40) / (7 + 1.15) = 0.748 A, 0.748 A x 7 ohm = 5.24 V)."""
+    design = default_design(NO_RESISTOR)
     vfs = full_scale_voltage(design)
     assert vfs == pytest.approx((7.5 - 1.40) / (7.0 + 1.15) * 7.0, rel=1e-9)
     assert vfs > design.drive.max_coil_voltage
@@ -283,7 +288,7 @@ def test_default_supply_limits_level_and_reaches_the_papers_3V(design):
     with pytest.raises(RatingError, match="whisker 0 means"):
         check_levels(design, np.full(8, top + 1e-6))
     # the old 5 V default reached 3 V only near full duty (level 0.97)
-    assert float(volts_to_levels(default_design("driver.supply_voltage=5"), 3.0)) == pytest.approx(0.970, abs=1e-3)
+    assert float(volts_to_levels(default_design("driver.supply_voltage=5", NO_RESISTOR), 3.0)) == pytest.approx(0.970, abs=1e-3)
 
 
 @settings(max_examples=40, deadline=None)
@@ -291,7 +296,7 @@ def test_default_supply_limits_level_and_reaches_the_papers_3V(design):
 def test_volts_to_levels_round_trips_at_any_supply(vs, volts):
     """level = volts / V_fs with V_fs = R (Vs - V0) / (R + r) from the L298N model; within the rating
     and the full scale the round trip is exact, above either it is refused, never clipped."""
-    d = default_design(f"driver.supply_voltage={vs!r}")
+    d = default_design(f"driver.supply_voltage={vs!r}", NO_RESISTOR)
     vfs = full_scale_voltage(d)
     assert vfs == pytest.approx(7.0 * (vs - 1.40) / (7.0 + 1.15), rel=1e-9)
     assert max_level(d) == pytest.approx(min(1.0, 3.3 / vfs))

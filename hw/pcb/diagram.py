@@ -26,9 +26,12 @@ def draw(design: Design, path: str | Path | None = None):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Circle, FancyBboxPatch
+    from matplotlib.patches import Circle, FancyBboxPatch, Rectangle
+
+    from whisker.driver import series_resistance_ohm
 
     chans = pin_map(design)
+    series_ohm = series_resistance_ohm(design)
     n = design.whiskers.count
     mods = modules_needed(n)
     expander = design.wiring.expander == "pca9685"
@@ -119,6 +122,10 @@ def draw(design: Design, path: str | Path | None = None):
         (ax_, ay_), (bx_, by_) = term_y[(c.module, out_a)], term_y[(c.module, out_b)]
         cx, cy = mx + 3.6, (ay_ + by_) / 2
         ax.plot([ax_, cx - 0.3], [ay_, cy + 0.1], color=colour[c.whisker], lw=1.4)
+        if series_ohm > 0:  # the series resistor on the A lead, drawn as a box with its reference
+            rx, ry = (ax_ + cx - 0.3) / 2, (ay_ + cy + 0.1) / 2
+            ax.add_patch(Rectangle((rx - 0.22, ry - 0.07), 0.44, 0.14, fc="white", ec="black", lw=0.8, zorder=3))
+            ax.text(rx, ry + 0.12, f"R{c.whisker + 1}", fontsize=5, ha="center", va="bottom")
         ax.plot([bx_, cx - 0.3], [by_, cy - 0.1], color=colour[c.whisker], lw=1.4)
         ax.add_patch(Circle((cx, cy), 0.3, fc=colour[c.whisker], ec="black"))
         ax.text(cx + 0.45, cy, f"coil {c.whisker}\n{design.whisker_angles_deg[c.whisker]:g} deg",
@@ -131,7 +138,8 @@ def draw(design: Design, path: str | Path | None = None):
             + ("VS of every module (5V-EN jumper fitted)" if module_makes_own_logic_supply(design)
                else "VS, +5V, ENA/ENB of every module (5V-EN jumper off)")
             + f";\nsupply GND -> module GND and Pi GND (pin 6);\n5 V LED strip on Pi pins {LED_HEADER_PINS[0]} (5V) "
-            f"and {LED_HEADER_PINS[1]} (GND)",
+            f"and {LED_HEADER_PINS[1]} (GND)"
+            + (f";\nR1..R{n}: {series_ohm:g} ohm series resistor in each coil's A lead" if series_ohm > 0 else ""),
             ha="center", va="top", fontsize=7)
     ax.set_title(f"Coil driver wiring: {n} coils, {mods} x {design.driver.type}"
                  + (f", PCA9685 expander" if expander else ", direct GPIO (PWM on IN pins)"),

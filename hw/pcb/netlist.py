@@ -9,7 +9,9 @@ is needed. Pin electrical types follow the hardware so that SKiDL's ERC can catc
 - L298N module (U1..Um): IN1..IN4 and ENA/ENB INPUT, OUT1..OUT4 OUTPUT, +12V (VS), +5V (logic)
   and GND POWER-IN. ENA/ENB sit on +5V (the module's jumpers), unused
   inputs of a half-used module are tied to GND, unused outputs are no-connect.
-- coils (L1..LN): two PASSIVE pins across one channel's outputs.
+- coils (L1..LN): two PASSIVE pins across one channel's outputs; with a series resistor
+  (``driver.series_resistance`` > 0, ``whisker.driver.series_resistance_ohm``) R1..RN (PASSIVE) sit
+  between OUT1/OUT3 (net COILi_OUTA) and coil pin A (net COILi_A).
 - the coil supply (PS1): + and GND POWER-OUT (net "+<supply>V"); the 5 V LED strip (D1): POWER-IN,
   on the Pi's 5 V header pin (net "+5V_PI", ``whisker.pins.LED_HEADER_PINS``), not the coil supply.
 - a supply above the L298's 7 V logic maximum (the default 7.5 V) keeps each module's 5V-EN jumper:
@@ -160,6 +162,17 @@ def _coil(sk, ckt, i: int, d: Design):
                  "whisker:Coil_leads", pins, f"coil of whisker {i} (two soldered leads)")
 
 
+def _resistor(sk, ckt, i: int, ohm: float, d: Design):
+    from whisker.driver import resistor_power_W, resistor_rating_W
+
+    T = sk.Pin.types
+    pins = [sk.Pin(num=1, name="1", func=T.PASSIVE), sk.Pin(num=2, name="2", func=T.PASSIVE)]
+    watts = resistor_rating_W(resistor_power_W(d))
+    return _part(sk, ckt, "R", f"R{i + 1}", f"{ohm:g}R {watts:g}W",
+                 "Resistor_THT:R_Axial_DIN0617_L17.0mm_D6.0mm_P25.40mm_Horizontal", pins,
+                 f"series resistor of coil {i}: bridge output -> coil A (driver.series_resistance)")
+
+
 def _supply(sk, ckt, d: Design):
     T = sk.Pin.types
     pins = [sk.Pin(num=1, name="+", func=T.PWROUT), sk.Pin(num=2, name="GND", func=T.PWROUT)]
@@ -198,7 +211,10 @@ def build_circuit(design: Design) -> Board:
 
 def _build_circuit(sk, design: Design) -> Board:
     channels = pin_map(design)
+    from whisker.driver import series_resistance_ohm
     from whisker.pins import used_gpio
+
+    series_ohm = series_resistance_ohm(design)
 
     used = used_gpio(design)
     ckt = sk.Circuit()
@@ -270,8 +286,13 @@ def _build_circuit(sk, design: Design) -> Board:
             x = expanders[(ch.address - design.wiring.pca9685_address)]
             src_f, src_b = x[f"PWM{ch.forward}"], x[f"PWM{ch.backward}"]
         coil = P[f"L{ch.whisker + 1}"] = _coil(sk, ckt, ch.whisker, design)
-        for suffix, pins in (("FWD", (src_f, u[in_f])), ("BWD", (src_b, u[in_b])),
-                             ("A", (u[out_a], coil["A"])), ("B", (u[out_b], coil["B"]))):
+        links = [("FWD", (src_f, u[in_f])), ("BWD", (src_b, u[in_b])), ("B", (u[out_b], coil["B"]))]
+        if series_ohm > 0:  # bridge output -> series resistor -> coil A (the paper's dividing circuit)
+            res = P[f"R{ch.whisker + 1}"] = _resistor(sk, ckt, ch.whisker, series_ohm, design)
+            links += [("OUTA", (u[out_a], res[1])), ("A", (res[2], coil["A"]))]
+        else:
+            links += [("A", (u[out_a], coil["A"]))]
+        for suffix, pins in links:
             net(f"COIL{ch.whisker}_{suffix}").connect(*pins)
 
     # Unused half of the last module: inputs tied low, outputs open.

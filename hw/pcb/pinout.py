@@ -22,9 +22,13 @@ def _source(ch: CoilChannel, pin: int) -> tuple[str, str]:
 
 def pinout_rows(design: Design) -> list[dict[str, str]]:
     """Two rows per coil (forward, backward): where the signal comes from and where it goes."""
+    from whisker.driver import series_resistance_ohm
+
     rows = []
     angles = design.whisker_angles_deg
+    rs = series_resistance_ohm(design)
     for ch in pin_map(design):
+        via = f"R{ch.whisker + 1} ({rs:g} ohm) -> " if rs > 0 else ""
         in_f, in_b, en, (out_a, out_b) = ch.terminals
         for signal, pin, term, out in (("forward", ch.forward, in_f, out_a),
                                         ("backward", ch.backward, in_b, out_b)):
@@ -32,7 +36,7 @@ def pinout_rows(design: Design) -> list[dict[str, str]]:
             rows.append({"coil": str(ch.whisker), "angle_deg": f"{angles[ch.whisker]:g}",
                          "signal": signal, "source": src, "header_pin": header,
                          "module": f"U{ch.module + 1}", "module_terminal": term,
-                         "coil_terminal": f"{out} -> coil {'A' if out == out_a else 'B'}"})
+                         "coil_terminal": (f"{out} -> {via}coil A" if out == out_a else f"{out} -> coil B")})
     return rows
 
 
@@ -54,6 +58,13 @@ def pinout_markdown(design: Design) -> str:
              f"{modules_needed(n)} x {design.driver.type} module(s), one channel per coil. "
              "ENA/ENB jumpers stay fitted (EN high); PWM on IN1/IN2 (IN3/IN4) sets the signed duty: "
              "`gpiozero.Motor(forward, backward, pwm=True)`.", ""]
+    from whisker.driver import resistor_power_W, resistor_rating_W, series_resistance_ohm
+
+    rs = series_resistance_ohm(design)
+    if rs > 0:
+        lines += [f"Each coil's A lead goes through its series resistor R1..R{n} ({rs:g} ohm, "
+                  f"{resistor_rating_W(resistor_power_W(design)):g} W; driver.series_resistance): the coil "
+                  "never sees more than its rating, even at 100 % duty.", ""]
     lines += ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
     lines += ["| " + " | ".join(r[c] for c in COLUMNS) + " |" for r in rows]
     vs = design.driver.supply_voltage

@@ -11,6 +11,8 @@ Quantity rules (all inputs from the Design unless stated):
   winding length comes from ``whisker.coil.winding(design).wire_length_mm`` (issue-4 calculator).
 - L298N modules: ceil(N / 2) (two H-bridge channels each); PCA9685 boards when wiring.expander is
   "pca9685": ceil(2 N / 16). Pin counts and jumper wires come from ``whisker.pins.pin_map``.
+- series resistors: N when driver.series_resistance resolves to > 0 (``whisker.driver``), power
+  rating the smallest common one carrying the 100 % duty, cold-coil dissipation at <= 60 %.
 - Ecoflex: membrane CAD volume x (1 + bom.ecoflex_waste), grams with membrane.density.
 - PLA, per printed part, three estimates (benchmarks/results/bom.md compares them with the slicer):
   solid = V x density (100 % infill, an upper bound); shell = density x (S + f (V - S)) with the
@@ -36,6 +38,7 @@ from pathlib import Path
 from typing import Optional
 
 from whisker.design import Design
+from whisker.driver import RESISTOR_LOAD, resistor_power_W, resistor_rating_W, series_resistance_ohm
 from whisker.guard import full_scale_voltage
 from whisker.pins import (LED_HEADER_PINS, PCA9685_CHANNELS, expander_boards_needed, module_makes_own_logic_supply,
                           modules_needed, pin_map, supply_warnings)
@@ -345,8 +348,19 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
     add("h_bridge", "buy", f"{d.driver.type} dual H-bridge module", _num(modules), "pcs",
         f"2 channels each (IN1/IN2/ENA, IN3/IN4/ENB), ENA/ENB jumpers fitted, {jumper}",
         "common L298N motor-driver boards",
-        f"ceil({n}/2); PWM on IN1/IN2 sets the mean coil voltage, so the paper's voltage divider "
-        f"is not needed (docs/wiring.md){cautions}")
+        f"ceil({n}/2); PWM on IN1/IN2 sets the mean coil voltage (docs/wiring.md){cautions}")
+
+    rs = series_resistance_ohm(d)
+    if rs > 0:
+        p_rs = resistor_power_W(d)
+        rating = resistor_rating_W(p_rs)
+        add("series_resistor", "buy", "series resistor per coil (the paper's voltage dividing circuit)", _num(n),
+            "pcs", f"{rs:g} ohm, {rating:g} W, 5 %, metal oxide or wirewound, axial",
+            "any electronics distributor",
+            f"one between each L298N output and its coil (driver.series_resistance); {p_rs:.2f} W at 100 % "
+            f"duty into a cold coil, <= {RESISTOR_LOAD:.0%} of the rating; caps the coil at "
+            f"{full_scale_voltage(d):.2f} V <= drive.max_coil_voltage={d.drive.max_coil_voltage:g} V "
+            f"even when a GPIO sticks high")
 
     if expander:
         boards = expander_boards_needed(n)
@@ -387,7 +401,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         f"{d.driver.supply_voltage:g} V regulated, at least {math.ceil(amps)} A",
         "bench supply or regulated wall adapter",
         f"{amps:.2f} A with all {n} coils fully on at once ({full_scale_voltage(d):.2f} V at each "
-        f"{c.resistance:g} ohm coil after the bridge drop) and the modules' quiescent current; "
+        f"{c.resistance:g} ohm coil after the bridge drop and series resistor) and the modules' quiescent current; "
         "share its GND with the Pi")
 
     signal = sum(2 + (ch.enable is not None) for ch in channels)  # source -> IN (and EN) per coil

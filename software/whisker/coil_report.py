@@ -134,6 +134,9 @@ def format_report(rep: dict) -> str:
     L.append(f"  drop {dr['bridge_drop_V']:.2f} V typ / {dr['bridge_drop_max_V']:.2f} V max at "
              f"{dr['target_current_A']:.3f} A; coil gets {dr['coil_V_full_on']:.2f} V fully on; supply for "
              f"{dr['target_coil_V']:g} V: {dr['supply_for_direct_V']:.2f} V typ / {dr['supply_for_direct_max_V']:.2f} V max")
+    if dr.get("design_series_ohm"):
+        L.append(f"  with the design's {dr['design_series_ohm']:g} ohm series resistor (driver.series_resistance): "
+                 f"{dr['coil_V_full_on_design']:.2f} V at the coil fully on (PWM level 1)")
     for p in dr["plans"]:
         line = f"  {p['method']:8s} {p['detail']}"
         if p["current_cold_A"] > 0:

@@ -84,6 +84,67 @@ def coil_current_A(bridge_: Bridge, supply_V: float, coil_ohm: float, series_ohm
     return max(0.0, (supply_V - v0) / (coil_ohm + series_ohm + r))
 
 
+def series_resistance_ohm(design) -> float:
+    """The series resistor per coil of the design, ohm (``driver.series_resistance``; 0 = none).
+
+    ``"auto"``: the smallest E24 value such that a cold (20 C) coil gets at most
+    ``drive.max_coil_voltage`` at 100 % duty with the bridge's typical drop (the driver model of
+    :func:`whisker.guard.full_scale_voltage`): I = (Vs - V0)/(Rc + Rs + r) <= Vmax/Rc gives
+    Rs >= Rc (Vs - V0)/Vmax - Rc - r, rounded up to E24; 0 when the bare bridge already stays within
+    the rating (default design: 7 x 6.1/3.3 - 8.15 = 4.79 -> 5.1 ohm).
+    """
+    value = design.driver.series_resistance
+    if value != "auto":
+        return float(value)
+    return auto_series_resistance_ohm(bridge(design.driver.type), float(design.driver.supply_voltage),
+                                      float(design.coil.resistance), float(design.drive.max_coil_voltage))
+
+
+def auto_series_resistance_ohm(bridge_: Bridge, supply_V: float, coil_ohm: float, max_coil_V: float,
+                               series: str = "E24") -> float:
+    """Smallest preferred series resistor keeping coil_ohm at <= max_coil_V fully on, ohm (0 if none needed).
+
+    Typical bridge corner: the lower drop of the two corners, so the larger coil voltage.
+    """
+    if not (coil_ohm > 0 and max_coil_V > 0 and math.isfinite(supply_V)):
+        raise DriverError(f"series resistor needs a positive coil resistance and rating (got {coil_ohm!r} ohm, "
+                          f"{max_coil_V!r} V)")
+    exact = coil_ohm * (supply_V - bridge_.v0_typ) / max_coil_V - coil_ohm - bridge_.r_typ
+    if exact <= 0:
+        return 0.0
+    rs = nearest_preferred(exact, series, "up")
+    # guard against rounding: the chosen value must keep the coil within the rating
+    while coil_current_A(bridge_, supply_V, coil_ohm, rs) * coil_ohm > max_coil_V * (1 + 1e-12):
+        rs = nearest_preferred(rs * 1.0001, series, "up")
+    return rs
+
+
+POWER_RATINGS_W = (0.25, 0.5, 1.0, 2.0, 3.0, 5.0, 10.0)  # common through-hole resistor ratings
+RESISTOR_LOAD = 0.6  # largest fraction of the rating used: metal-oxide/film resistors derate linearly
+                     # from 100 % at 70 C ambient to 0 near 200 C, so 60 % holds up to ~120 C ambient
+
+
+def resistor_rating_W(power_W: float) -> float:
+    """Smallest common power rating that carries power_W at <= RESISTOR_LOAD of its rating, W."""
+    if not (math.isfinite(power_W) and power_W >= 0):
+        raise DriverError(f"resistor power must be a finite number >= 0 (got {power_W!r} W)")
+    for r in POWER_RATINGS_W:
+        if power_W <= RESISTOR_LOAD * r:
+            return r
+    raise DriverError(f"{power_W:.3g} W in the series resistor needs more than a {POWER_RATINGS_W[-1]:g} W part; "
+                      f"lower the supply or use PWM without a resistor")
+
+
+def resistor_power_W(design, temperature_C: float = 20.0) -> float:
+    """Heat in one coil's series resistor at 100 % duty (steady), W; cold coil = the largest current."""
+    rs = series_resistance_ohm(design)
+    if rs == 0:
+        return 0.0
+    rc = _coil.resistance_ohm(design, temperature_C)
+    i = coil_current_A(bridge(design.driver.type), float(design.driver.supply_voltage), rc, rs)
+    return i * i * rs
+
+
 def supply_for_coil_voltage(bridge_: Bridge, coil_V: float, coil_ohm: float, corner: str = "typ") -> float:
     """Supply voltage that puts coil_V across the coil directly on the bridge, V."""
     return coil_V + bridge_.drop_V(coil_V / coil_ohm, corner)
@@ -181,6 +242,19 @@ def plan(design, target_coil_V: float | None = None, driver: str | None = None,
                                duty * i_full * br.drop_V(i_full),
                                warning=f"the coil heats {1 / duty:.2f}x more than a steady current of the same "
                                        f"mean (RMS^2 = mean^2 / duty)"))
+        # the design's drive: its series resistor (driver.series_resistance) plus PWM for the rest
+        rs_d = series_resistance_ohm(design) if driver in (None, design.driver.type) else 0.0
+        if rs_d > 0:
+            i_c, i_h = coil_current_A(br, vs, rc, rs_d), coil_current_A(br, vs, rh, rs_d)
+            v_fs = i_c * rc
+            out["design_series_ohm"], out["coil_V_full_on_design"] = rs_d, v_fs
+            if v_fs >= vt:
+                d_s = vt / v_fs
+                plans.append(DrivePlan(
+                    "pwm+series", f"the design's drive: {rs_d:g} ohm series resistor (driver.series_resistance, "
+                    f"{v_fs:.2f} V at the coil fully on) + PWM duty {d_s:.3f}, heating {1 / d_s:.2f}x a steady "
+                    f"current (PWM alone {1 / duty:.2f}x)", vt, d_s * i_c, d_s * i_h,
+                    100 * (i_h / i_c - 1), d_s * i_c ** 2 * rc, d_s * (i_c ** 2 * rs_d + i_c * br.drop_V(i_c))))
     out["plans"] = [p.to_dict() for p in plans]
     return out
 
