@@ -127,7 +127,10 @@ def test_sigkill_mid_recording_keeps_every_completed_frame(tmp_path, durability)
             done = int(line)
     finally:
         p.send_signal(signal.SIGKILL)
-        rest = p.communicate(timeout=30)[0]
+        # read the rest through the same buffered reader as readline(): lines it already holds count too
+        # (communicate(timeout=...) reads the raw pipe and would miss them, under-counting the frames)
+        rest = p.stdout.read()
+        p.wait(timeout=30)
     assert p.returncode == -signal.SIGKILL
     reported = [int(x) for x in rest.split()] or [done]
     last_reported = max(done, *reported)
