@@ -38,7 +38,8 @@ def test_default_is_auto_and_resolves_to_5_1_ohm(design):
 
 
 @pytest.mark.parametrize("value, match", [("-1", "driver.series_resistance"), ("nan", "driver.series_resistance"),
-                                          ("manual", "driver.series_resistance"), ("5000", "driver.series_resistance")])
+                                          ("manual", "driver.series_resistance"), ("5000", "driver.series_resistance"),
+                                          ("true", "from 0 \\(none\\) to 1000")])
 def test_bad_values_refused_on_one_line(value, match):
     with pytest.raises(DesignError, match=match) as err:
         default_design(f"driver.series_resistance={value}")
@@ -121,8 +122,9 @@ def test_resistor_rating_choice():
     assert driver.resistor_rating_W(0.6) == 1.0
     assert driver.resistor_rating_W(1.2) == 2.0
     assert driver.resistor_rating_W(1.21) == 3.0
-    with pytest.raises(driver.DriverError, match="more than a 10 W part"):
-        driver.resistor_rating_W(7.0)
+    assert driver.resistor_rating_W(7.0) == 25.0
+    with pytest.raises(driver.DriverError, match="more than a 50 W part"):
+        driver.resistor_rating_W(31.0)
     with pytest.raises(driver.DriverError, match="finite"):
         driver.resistor_rating_W(float("nan"))
 
@@ -247,3 +249,15 @@ def test_coil_plan_shows_the_designs_drive(design):
     assert pwm["coil_heat_W"] / ps["coil_heat_W"] == pytest.approx(1.626, abs=2e-3)
     assert ps["current_cold_A"] == pytest.approx(pwm["current_cold_A"])  # same mean current = same force
     assert not any(x["method"] == "pwm+series" for x in driver.plan(default_design(NO_RESISTOR))["plans"])
+
+
+def test_unbuildable_resistor_refused_by_bom_and_pcb(tmp_path):
+    """46 V into a 1 ohm coil would burn ~119 W in its series resistor: both tools refuse on one line."""
+    from conftest import run_cli
+
+    over = ["--set", "driver.supply_voltage=46", "--set", "coil.resistance=1"]
+    for cmd in (["hw", "bom", *over, "--out", str(tmp_path / "b.csv")], ["hw", "pcb", *over, "--out", str(tmp_path / "p")]):
+        r = run_cli(*cmd)
+        assert r.returncode == 2, r.stderr
+        assert "more than a 50 W part" in r.stderr and "Traceback" not in r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1

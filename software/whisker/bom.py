@@ -239,7 +239,8 @@ L298_QUIESCENT_A = 0.070 + 0.036
 def supply_current_A(design: Design) -> float:
     """Coil supply current with every coil fully on at once, A: N x V_fs / R (+ the L298 modules'
     quiescent current). V_fs = ``whisker.guard.full_scale_voltage``: the supply minus the bridge's
-    typical drop (8 x 5.24 V / 7 ohm = 5.99 A at 7.5 V; without the drop it would be 8.6 A)."""
+    typical drop, shared with the series resistor (8 x 3.22 V / 7 ohm = 3.68 A at 7.5 V; 8 x 5.24 V /
+    7 ohm = 5.99 A without the resistor; 8.6 A without the drop either)."""
     coils = design.whiskers.count * full_scale_voltage(design) / design.coil.resistance
     quiescent = modules_needed(design.whiskers.count) * L298_QUIESCENT_A if design.driver.type == "L298N" else 0.0
     return coils + quiescent
@@ -353,7 +354,10 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
     rs = series_resistance_ohm(d)
     if rs > 0:
         p_rs = resistor_power_W(d)
-        rating = resistor_rating_W(p_rs)
+        try:
+            rating = resistor_rating_W(p_rs)
+        except ValueError as err:  # whisker.driver.DriverError: no common part carries it
+            raise BomError(f"series resistor: {err}") from err
         add("series_resistor", "buy", "series resistor per coil (the paper's voltage dividing circuit)", _num(n),
             "pcs", f"{rs:g} ohm, {rating:g} W, 5 %, metal oxide or wirewound, axial",
             "any electronics distributor",
@@ -401,7 +405,8 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         f"{d.driver.supply_voltage:g} V regulated, at least {math.ceil(amps)} A",
         "bench supply or regulated wall adapter",
         f"{amps:.2f} A with all {n} coils fully on at once ({full_scale_voltage(d):.2f} V at each "
-        f"{c.resistance:g} ohm coil after the bridge drop and series resistor) and the modules' quiescent current; "
+        f"{c.resistance:g} ohm coil after the bridge drop{' and series resistor' if rs > 0 else ''}) and the "
+        "modules' quiescent current; "
         "share its GND with the Pi")
 
     signal = sum(2 + (ch.enable is not None) for ch in channels)  # source -> IN (and EN) per coil

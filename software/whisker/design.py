@@ -16,7 +16,7 @@ import hashlib
 import json
 import math
 from pathlib import Path
-from typing import Annotated, Any, Iterable, Literal
+from typing import Any, Iterable, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
@@ -208,10 +208,19 @@ class Thermal(_Section):
 class Driver(_Section):
     type: str = Field(description="H-bridge module name")
     supply_voltage: float = Field(gt=0, description="V into the H-bridge")
-    series_resistance: Literal["auto"] | Annotated[float, Field(ge=0, le=1000)] = Field("auto", description=(
+    series_resistance: Literal["auto"] | float = Field("auto", description=(
         "ohm, resistor in series with each coil between the H-bridge output and the coil; 0 = none; "
         "'auto' = the smallest E24 value that keeps a cold coil at <= drive.max_coil_voltage at 100 % "
         "duty (whisker.driver.series_resistance_ohm)"))
+
+    @field_validator("series_resistance", mode="before")
+    @classmethod
+    def _series_resistance(cls, v):
+        if v == "auto":
+            return v
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 <= v <= 1000):
+            raise ValueError("must be \"auto\" or a resistance in ohm from 0 (none) to 1000")
+        return float(v)
 
 
 class Drive(_Section):

@@ -119,7 +119,8 @@ def auto_series_resistance_ohm(bridge_: Bridge, supply_V: float, coil_ohm: float
     return rs
 
 
-POWER_RATINGS_W = (0.25, 0.5, 1.0, 2.0, 3.0, 5.0, 10.0)  # common through-hole resistor ratings
+POWER_RATINGS_W = (0.25, 0.5, 1.0, 2.0, 3.0, 5.0, 10.0, 25.0, 50.0)  # common resistor ratings (25/50 W:
+                                                                      # aluminium-housed wirewound)
 RESISTOR_LOAD = 0.6  # largest fraction of the rating used: metal-oxide/film resistors derate linearly
                      # from 100 % at 70 C ambient to 0 near 200 C, so 60 % holds up to ~120 C ambient
 

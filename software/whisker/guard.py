@@ -316,7 +316,7 @@ class ThermalGuard:
         ahead at the level it would apply (the request times the derate factor), reaches the
         cut-off: so the cut comes before the crossing, not one update after it. (Predicting with the
         un-derated request instead trips a derating coil whenever one period of the full request
-        heats it across the cut-off, e.g. at the 5.24 V full scale of a 7.5 V supply.)
+        heats it across the cut-off, e.g. at the bare bridge's 5.24 V full scale from a 7.5 V supply.)
         """
         t = self.temperatures
         f = np.ones(self.n)

@@ -52,12 +52,13 @@ def pcb(design, out, no_diagram):
     SKiDL's ERC never fails by itself: its errors are counted here and any error exits 1
     (the output folder is then left as it was). Too many coils for the Pi exits 2.
     """
+    from whisker.driver import DriverError
     from whisker.pcb.build import ErcFailed, build
     from whisker.pins import PinMapError
 
     try:
         summary = build(design, Path(out), draw=not no_diagram)
-    except PinMapError as err:
+    except (PinMapError, DriverError) as err:  # DriverError: no series resistor part carries the power
         fail(f"pcb refused: {err}")
     except ErcFailed as err:
         fail(str(err), code=1)
