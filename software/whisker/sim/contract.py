@@ -30,9 +30,11 @@ def force_per_ampere_N(design, gap_mm, model: str = "table") -> np.ndarray:
 
 
 def current_A(design, volts, temperature_C=20.0) -> np.ndarray:
-    """Coil current at `volts` across the coil and `temperature_C` (A), (whisker.coil)."""
-    m = _mod("whisker.coil", "the magnetics effect")
-    return np.asarray(m.current_A(design, volts, temperature_C), dtype=float)
+    """Coil current (A) when the drive puts `volts` across the coil at 20 C, at `temperature_C`:
+    ``whisker.guard.coil_current_A``, the actuation module's one definition (V / R(T) without a
+    series resistor; behind ``driver.series_resistance`` a warm coil loses less current)."""
+    m = _mod("whisker.guard", "the magnetics effect")
+    return np.asarray(m.coil_current_A(design, volts, temperature_C), dtype=float)
 
 
 def pwm_rms_current_A(mean_current_A, levels) -> np.ndarray:
