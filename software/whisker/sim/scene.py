@@ -278,8 +278,8 @@ class ContactSpec(_S):
     cone: Literal["pyramidal", "elliptic"] = "elliptic"
     impratio: float = Field(3.0, ge=1, le=100, description=(
         "MuJoCo friction-to-normal impedance ratio: larger = harder friction (less creep of a held object) "
-        "and more solver iterations; 3 is nearest the fine reference at half the cost of 10 "
-        "(benchmarks/results/sim.md)"))
+        "and more solver iterations; 3 is as close to the fine reference as 10 at about half the cost "
+        "on compound objects (benchmarks/results/sim.md)"))
     integrator: Literal["Euler", "implicitfast", "implicit", "RK4"] = "implicitfast"
     solref_timeconst: float = Field(0.004, gt=0, le=1, description="s, contact stiffness time constant")
     chunk: int = Field(5, ge=1, le=1000, description="MuJoCo steps between Python updates (path velocity, "
