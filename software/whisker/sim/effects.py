@@ -234,36 +234,33 @@ def plan(scene: Scene, design) -> Plan:
                           f"model {fid.magnetics!r}, torque about the pivot" if acts
                           else "no actuation in the scene (every level is 0)", needs=("kinematics",)))
     # heating
+    attempts = ex in ("grasp", "displacement") and bool(scene.objects)
     if not acts:
         heat, why = False, "no coil is driven"
     elif fid.heating == "on":
         heat, why = True, "fidelity.heating = 'on'"
     elif fid.heating == "off":
         heat, why = False, "fidelity.heating = 'off'"
-    elif ex in ("grasp", "displacement") and scene.objects:
-        from whisker.sim.paper import grasp_level, grasp_scene
+    elif not attempts and (ex == "angle_vs_voltage" or scene.scene.duration <= 0):
+        heat, why = False, "static solve: no drive time for a coil to warm (steady angle at ambient)"
+    else:
+        # an experiment's coils warm during one of its attempts; a plain scene's during its schedule
         try:
-            rep = grasp_scene(scene, scene.objects[0], list(range(n)), release=ex == "displacement",
-                              level=grasp_level(design))
+            if attempts:
+                from whisker.sim.paper import grasp_level, grasp_scene
+                rep = grasp_scene(scene, scene.objects[0], list(range(n)), release=ex == "displacement",
+                                  level=grasp_level(design))
+                what, consequence = f"one {ex} attempt ({rep.scene.duration:.2g} s)", ""
+            else:
+                rep, what = scene, "the schedule"
+                consequence = ": resistance and current change {}"
             rise = predicted_rise_K(rep, design)
         except MissingModule as err:
             heat, why = False, f"cannot predict the coil's warming, run at ambient ({err})"
         else:
             heat = rise > fid.heating_threshold_K
-            why = (f"one {ex} attempt ({rep.scene.duration:.2g} s) warms a coil by {rise:.2g} K "
-                   f"({'>' if heat else '<='} {fid.heating_threshold_K:g} K)")
-    elif ex == "angle_vs_voltage" or scene.scene.duration <= 0:
-        heat, why = False, "static solve: no drive time for a coil to warm (steady angle at ambient)"
-    else:
-        try:
-            rise = predicted_rise_K(scene, design)
-        except MissingModule as err:
-            heat, why = False, f"cannot predict the coil's warming, run at ambient ({err})"
-        else:
-            heat = rise > fid.heating_threshold_K
-            why = (f"the schedule warms a coil by {rise:.2g} K "
-                   f"({'>' if heat else '<='} {fid.heating_threshold_K:g} K): resistance and current change "
-                   f"{'enough to matter' if heat else 'too little to matter'}")
+            why = (f"{what} warms a coil by {rise:.2g} K ({'>' if heat else '<='} {fid.heating_threshold_K:g} K)"
+                   + consequence.format("enough to matter" if heat else "too little to matter"))
     effects.append(Effect("heating", heat, why, needs=("magnetics",)))
     # contact
     reachable = objects_in_reach(scene, design)
