@@ -250,17 +250,17 @@ def plan(scene: Scene, design) -> Plan:
                 from whisker.sim.paper import grasp_level, grasp_scene
                 rep = grasp_scene(scene, scene.objects[0], list(range(n)), release=ex == "displacement",
                                   level=grasp_level(design))
-                what, consequence = f"one {ex} attempt ({rep.scene.duration:.2g} s)", ""
+                what = f"one {ex} attempt ({rep.scene.duration:.2g} s)"
             else:
                 rep, what = scene, "the schedule"
-                consequence = ": resistance and current change {}"
             rise = predicted_rise_K(rep, design)
         except MissingModule as err:
             heat, why = False, f"cannot predict the coil's warming, run at ambient ({err})"
         else:
             heat = rise > fid.heating_threshold_K
-            why = (f"{what} warms a coil by {rise:.2g} K ({'>' if heat else '<='} {fid.heating_threshold_K:g} K)"
-                   + consequence.format("enough to matter" if heat else "too little to matter"))
+            why = f"{what} warms a coil by {rise:.2g} K ({'>' if heat else '<='} {fid.heating_threshold_K:g} K)"
+            if not attempts:
+                why += f": resistance and current change {'enough to matter' if heat else 'too little to matter'}"
     effects.append(Effect("heating", heat, why, needs=("magnetics",)))
     # contact
     reachable = objects_in_reach(scene, design)

@@ -274,7 +274,7 @@ class MjScene:
             raise SimulationError(f"MuJoCo found an unstable acceleration (DOF {bad.lastinfo}) near t = "
                                   f"{self.t + dt * nstep:.4g} s and reset the state; use a smaller "
                                   "scene.timestep or a softer contact (contact.solref_timeconst)")
-        self.drive.heat(I, dt * nstep)
+        self.drive.heat(dt * nstep)
         self.t += dt * nstep
 
     def step(self, levels: np.ndarray) -> None:

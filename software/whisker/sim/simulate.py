@@ -75,9 +75,8 @@ class Drive:
         self.model = scene.fidelity.magnetics
         self._key = None
         self._I = np.zeros(n)
+        self._I_rms = np.zeros(n)                  # the heating current of the same levels
         self._heat_acc = 0.0
-        self._heat_I = np.zeros(n)
-        self._levels = np.zeros(n)
         self._lut = None
         if self.on and body is not None and scene.fidelity.magnetics_lookup > 0:
             from whisker.sim.contract import force_per_ampere_N
@@ -86,27 +85,26 @@ class Drive:
             self._lut = (g, force_per_ampere_N(design, g, model=self.model))
 
     def currents(self, levels: np.ndarray) -> np.ndarray:
-        from whisker.sim.contract import current_A
+        """Mean coil currents (A) of `levels`, which set the force; their PWM RMS currents, which set the
+        heat (whisker.sim.contract.pwm_rms_current_A), are kept for :meth:`heat`."""
+        from whisker.sim.contract import current_A, pwm_rms_current_A
         if not self.on:
             return np.zeros_like(levels)
         key = levels.tobytes()
-        self._levels = levels
         if key != self._key:
             self._I = np.asarray(current_A(self.design, levels * self.volts, self.T), dtype=float)
+            self._I_rms = pwm_rms_current_A(self._I, levels)
             self._key = key
         return self._I
 
-    def heat(self, I: np.ndarray, dt: float) -> None:
-        """Advance the coil temperatures by `dt` s with the mean currents `I` of the current levels
-        (heating follows the PWM's RMS current, whisker.sim.contract.pwm_rms_current_A)."""
+    def heat(self, dt: float) -> None:
+        """Advance the coil temperatures by `dt` s with the levels of the last :meth:`currents` call."""
         if self.thermal is None:
             return
-        from whisker.sim.contract import pwm_rms_current_A
         self._heat_acc += dt
-        self._heat_I = pwm_rms_current_A(I, self._levels)
         if self._heat_acc >= self.scene.fidelity.heating_interval - 1e-12:
-            self.T = np.array([self.thermal.step(float(T), float(abs(i)), self._heat_acc)
-                               for T, i in zip(self.T, self._heat_I)])
+            self.T = np.array([self.thermal.step(float(T), float(i), self._heat_acc)
+                               for T, i in zip(self.T, self._I_rms)])
             self._heat_acc = 0.0
             self._key = None                       # resistance changed: recompute currents
             _check_finite("coil temperature", self.T, 0.0)
@@ -189,7 +187,7 @@ def _free(scene, design, plan, body, progress, record_hz) -> Result:
         tau[:, 0] = drive.torque(body, theta[:, 0], I)
         tau += gravity_torque(body, theta, facing)
         theta, omega = step_free(body, theta, omega, tau, dt, method)
-        drive.heat(I, dt)
+        drive.heat(dt)
         _check_finite("whisker tilt", theta, t)
     res = _pack(plan, design, body, scene, np.array(rec_t), np.array(rec_th), np.array(rec_om),
                 np.array(rec_lv), steps=steps)
