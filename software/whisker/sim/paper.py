@@ -128,7 +128,7 @@ def draw_placement(scene, design, rng) -> Placement:
     return Placement(float(dx), float(dy), float(oyaw), float(rng.uniform(-180.0 / n, 180.0 / n)))
 
 
-def grasp_attempt(scene, design, obj, active, rng, *, keep=False, release=False, body=None,
+def grasp_attempt(scene, design, obj, active, rng=None, *, keep=False, release=False, body=None,
                   placement: Placement | None = None) -> Attempt:
     """One attempt at `placement` (default: drawn from `rng`, see :func:`draw_placement`)."""
     from whisker.sim.effects import plan
@@ -180,7 +180,7 @@ def grasp_table(scene: Scene, design, progress=None) -> dict:
             ok = []
             ls = []
             for pl in places:
-                a = grasp_attempt(scene, design, o, cfg, None, body=body, placement=pl)
+                a = grasp_attempt(scene, design, o, cfg, body=body, placement=pl)
                 ok.append(a.success)
                 ls.append(a.lift_mm)
                 done += 1
