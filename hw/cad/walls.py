@@ -1,0 +1,218 @@
+"""Wall thickness between named features of a printed part, measured on its mesh.
+
+A *feature* is a solid the part's maker cut away or that bounds it: a hole, a pocket, a cavity,
+or an *edge* (a shell just outside the part's outer surface, see :func:`outside_ring` and
+:func:`outside_slab`). The wall between two features is the shortest segment from one feature's
+cut surface to the other's that runs through the part's material. It is measured on the part's
+mesh (the exported STL tessellation), not read from the design's numbers:
+
+1. each feature's surface is sampled (about ``1/spacing^2`` points per mm^2, seeded, so a run is
+   repeatable);
+2. for every pair of features that do not touch (touching features form one opening: the lens
+   cone and the board pocket, a hole and the pocket it opens into), a k-d tree (scipy) gives the
+   sample pairs closer than ``min_wall``;
+3. a pair counts only if both ends lie on the part's surface (trimesh proximity, within ``tol``)
+   and the segment's interior is inside the part's material (trimesh containment at 1/4, 1/2, 3/4);
+4. the closest counted pair is remeasured with both surfaces resampled 8x more densely around it,
+   so the reported thickness depends little on the sampling (to about spacing/8).
+
+The result is a :class:`whisker.cad.checks.Check` naming the thinnest wall's two features and
+where it is (x, y, z in the mesh's coordinates, mm). Units: mm.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Mapping
+
+import cadquery as cq
+import manifold3d
+import numpy as np
+import trimesh
+from scipy.spatial import cKDTree
+
+from .checks import Check, _check, to_mesh
+
+# Features closer than this are one opening, not two with a wall between them (mm).
+TOUCH = 1e-3
+
+
+@dataclass(frozen=True)
+class Wall:
+    a: str
+    b: str
+    thickness: float                      # mm
+    point_a: tuple[float, float, float]   # on feature a's surface
+    point_b: tuple[float, float, float]
+
+    @property
+    def where(self) -> tuple[float, float, float]:
+        return tuple(float(round((p + q) / 2, 2)) for p, q in zip(self.point_a, self.point_b))
+
+    def describe(self) -> str:
+        x, y, z = self.where
+        return f"between {self.a} and {self.b} at ({x:g}, {y:g}, {z:g}) mm"
+
+
+def outside_ring(radius: float, z0: float, z1: float, width: float = 3.0) -> cq.Shape:
+    """The space just outside a round part's rim: an annulus from `radius` to radius + width (mm)."""
+    outer = cq.Solid.makeCylinder(radius + width, z1 - z0, cq.Vector(0, 0, z0))
+    return outer.cut(cq.Solid.makeCylinder(radius, z1 - z0, cq.Vector(0, 0, z0)))
+
+
+def outside_slab(z: float, xy: float, below: bool, width: float = 3.0) -> cq.Shape:
+    """The space just above (below=False) or below a part's flat face at height z, over +-xy (mm)."""
+    z0 = z - width if below else z
+    return cq.Solid.makeBox(2 * xy, 2 * xy, width, cq.Vector(-xy, -xy, z0))
+
+
+def outside_box(lo: tuple[float, float, float], hi: tuple[float, float, float], width: float = 3.0) -> cq.Shape:
+    """The space just outside the four sides of a box-shaped part from `lo` to `hi` (mm)."""
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    outer = cq.Solid.makeBox(x1 - x0 + 2 * width, y1 - y0 + 2 * width, z1 - z0, cq.Vector(x0 - width, y0 - width, z0))
+    return outer.cut(cq.Solid.makeBox(x1 - x0, y1 - y0, z1 - z0, cq.Vector(x0, y0, z0)))
+
+
+def _as_mesh(name: str, f) -> trimesh.Trimesh:
+    m = f if isinstance(f, trimesh.Trimesh) else to_mesh(f, 0.01, 0.2)
+    if len(m.faces) == 0 or not m.is_watertight:
+        raise ValueError(f"wall check feature {name!r} is not a closed solid")
+    return m
+
+
+def _manifold(m: trimesh.Trimesh) -> manifold3d.Manifold:
+    return manifold3d.Manifold(manifold3d.Mesh(vert_properties=np.ascontiguousarray(m.vertices, dtype=np.float32),
+                                               tri_verts=np.ascontiguousarray(m.faces, dtype=np.uint32)))
+
+
+def _touch(a: manifold3d.Manifold, b: manifold3d.Manifold, box: manifold3d.Manifold) -> bool:
+    """Do the features meet within the part's bounding box (where they cut it)? Tools that only
+    overlap in the air around the part (overshoots) are still two features with a wall between."""
+    a, b = a ^ box, b ^ box
+    if a.is_empty() or b.is_empty():
+        return False
+    if (a ^ b).volume() > 1e-9:
+        return True
+    return a.min_gap(b, 10 * TOUCH) < TOUCH
+
+
+def _near_faces(m: trimesh.Trimesh, c: np.ndarray, r: float) -> trimesh.Trimesh | None:
+    """The faces of `m` whose bounding boxes reach within `r` of point `c` (a sub-mesh), or None."""
+    tri = m.triangles
+    sel = np.all((tri.min(axis=1) <= c + r) & (tri.max(axis=1) >= c - r), axis=1)
+    return trimesh.Trimesh(m.vertices, m.faces[sel], process=False) if sel.any() else None
+
+
+def _local_min(part: trimesh.Trimesh, fa: trimesh.Trimesh, fb: trimesh.Trimesh, p: np.ndarray, q: np.ndarray,
+               h: float, tol: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """The sampled pair (p, q) made exact to ~h/8: both surfaces resampled densely near it, the
+    closest pair that still bounds the part's material kept (mm)."""
+    r = 2.0 * h
+
+    def dense(m: trimesh.Trimesh, c: np.ndarray) -> np.ndarray:
+        sub = _near_faces(m, c, r)
+        if sub is None:
+            return np.empty((0, 3))
+        count = int(min(max(sub.area / (h / 8) ** 2, 500), 100_000))
+        pts, _ = trimesh.sample.sample_surface(sub, count, seed=int(rng.integers(2 ** 31)))
+        return pts[np.linalg.norm(pts - c, axis=1) < r]
+
+    da, db = dense(fa, p), dense(fb, q)
+    if not len(da) or not len(db):
+        return p, q
+    dist, idx = cKDTree(db).query(da)
+    order = np.argsort(dist)[:2000]
+    k = _first_in_material(part, da[order], db[idx[order]], tol)
+    if k is None or dist[order][k] >= np.linalg.norm(q - p):
+        return p, q
+    return da[order][k], db[idx[order]][k]
+
+
+def _first_in_material(part: trimesh.Trimesh, p: np.ndarray, q: np.ndarray, tol: float) -> int | None:
+    """Index of the first pair (p[i], q[i]) with both ends on the part's surface and the segment's
+    interior in its material, or None. Tested in growing chunks: containment is the costly test."""
+    start = 0
+    for size in (16, 128, 1024, len(p)):
+        stop = min(len(p), start + size)
+        if stop <= start:
+            break
+        a, b = p[start:stop], q[start:stop]
+        _, on_a, _ = trimesh.proximity.closest_point(part, a)
+        _, on_b, _ = trimesh.proximity.closest_point(part, b)
+        cand = np.flatnonzero((on_a < tol) & (on_b < tol))
+        if len(cand):
+            ts = (0.25, 0.5, 0.75)
+            pts = np.vstack([a[cand] + t * (b[cand] - a[cand]) for t in ts])
+            inside = part.contains(pts).reshape(len(ts), -1).all(axis=0)
+            if inside.any():
+                return start + int(cand[np.flatnonzero(inside)[0]])
+        start = stop
+    return None
+
+
+def thin_walls(part: trimesh.Trimesh, features: Mapping[str, object], min_wall: float,
+               spacing: float | None = None, tol: float = 0.05, seed: int = 0,
+               max_candidates: int = 4000) -> list[Wall]:
+    """Every pair of features with a wall thinner than `min_wall` (mm) between them, thinnest first.
+
+    `features` maps a name to a solid (CadQuery shape or watertight trimesh) in the part mesh's
+    coordinates. `tol` is how far a sample may be from the part's surface and still be on it: at
+    least the mesh's linear tolerance.
+    """
+    if not (math.isfinite(min_wall) and min_wall > 0):
+        raise ValueError(f"min_wall must be a positive number of mm (got {min_wall!r})")
+    h = spacing or min(min_wall / 4.0, 0.2)
+    names = list(features)
+    meshes = {n: _as_mesh(n, features[n]) for n in names}
+    manis = {n: _manifold(m) for n, m in meshes.items()}
+    rng = np.random.default_rng(seed)
+    samples = {}
+    for n, m in meshes.items():
+        count = int(min(max(m.area / h ** 2, 200), 200_000))
+        pts, _ = trimesh.sample.sample_surface(m, count, seed=int(rng.integers(2 ** 31)))
+        samples[n] = np.asarray(pts)
+    lo, hi = part.bounds
+    # only samples near the part can bound its material
+    samples = {n: p[np.all((p >= lo - tol) & (p <= hi + tol), axis=1)] for n, p in samples.items()}
+    box = manifold3d.Manifold.cube(hi - lo).translate(lo)
+    found: list[Wall] = []
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            pa, pb = samples[a], samples[b]
+            if not len(pa) or not len(pb):
+                continue
+            dist, idx = cKDTree(pb).query(pa, distance_upper_bound=min_wall + h)
+            hit = np.isfinite(dist)
+            if not hit.any():
+                continue
+            if _touch(manis[a], manis[b], box):
+                continue
+            order = np.argsort(dist[hit])[:max_candidates]
+            p, q, dd = pa[hit][order], pb[idx[hit][order]], dist[hit][order]
+            k = _first_in_material(part, p, q, tol)
+            if k is None:
+                continue
+            ra, rb = p[k], q[k]
+            for _ in range(6):  # walk downhill: each step resamples around the best pair so far
+                na, nb = _local_min(part, meshes[a], meshes[b], ra, rb, h, tol, rng)
+                if np.linalg.norm(nb - na) >= np.linalg.norm(rb - ra) - 1e-4:
+                    break
+                ra, rb = na, nb
+            thick = float(np.linalg.norm(rb - ra))
+            if thick < min_wall:
+                found.append(Wall(a, b, thick, tuple(map(float, ra)), tuple(map(float, rb))))
+    return sorted(found, key=lambda w: w.thickness)
+
+
+def wall_check(part_name: str, part: trimesh.Trimesh, features: Mapping[str, object], min_wall: float,
+               parameters: tuple[str, ...] = ("print.min_wall",), **kw) -> Check:
+    """One check: the thinnest wall between any two features, >= `min_wall` (mm)."""
+    walls = thin_walls(part, features, min_wall, **kw)
+    if not walls:
+        return _check("thinnest wall between features", part_name, float(min_wall), True, f">= {min_wall:g}",
+                      "mm", parameters, f"none under {min_wall:g} mm among {len(features)} features")
+    w = walls[0]
+    more = f" (+{len(walls) - 1} more thin walls)" if len(walls) > 1 else ""
+    return _check("thinnest wall between features", part_name, w.thickness, False, f">= {min_wall:g}", "mm",
+                  parameters, w.describe() + more)
