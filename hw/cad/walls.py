@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Mapping
+from typing import Iterable, Mapping
 
 import cadquery as cq
 import manifold3d
@@ -36,6 +36,9 @@ from .checks import Check, _check, to_mesh
 
 # Features closer than this are one opening, not two with a wall between them (mm).
 TOUCH = 1e-3
+# A wall may measure this much under its modelled thickness and still pass: the tessellation's
+# chords and the surface sampling (mm; the same allowance as checks.MESH_TOL).
+SLACK = 0.05
 
 
 @dataclass(frozen=True)
@@ -86,15 +89,20 @@ def _manifold(m: trimesh.Trimesh) -> manifold3d.Manifold:
                                                tri_verts=np.ascontiguousarray(m.faces, dtype=np.uint32)))
 
 
-def _touch(a: manifold3d.Manifold, b: manifold3d.Manifold, box: manifold3d.Manifold) -> bool:
-    """Do the features meet within the part's bounding box (where they cut it)? Tools that only
-    overlap in the air around the part (overshoots) are still two features with a wall between."""
+def _touch(a: manifold3d.Manifold, b: manifold3d.Manifold, box: manifold3d.Manifold) -> np.ndarray | None:
+    """Where the features meet within the part's bounding box (where they cut it), or None. Tools
+    that only overlap in the air around the part (overshoots) are two features with a wall between."""
     a, b = a ^ box, b ^ box
     if a.is_empty() or b.is_empty():
-        return False
-    if (a ^ b).volume() > 1e-9:
-        return True
-    return a.min_gap(b, 10 * TOUCH) < TOUCH
+        return None
+    common = a ^ b
+    if common.volume() > 1e-9:
+        bb = np.asarray(common.bounding_box(), float)
+        return (bb[:3] + bb[3:]) / 2
+    if a.min_gap(b, 10 * TOUCH) < TOUCH:
+        bb = np.asarray(a.bounding_box(), float)
+        return (bb[:3] + bb[3:]) / 2
+    return None
 
 
 def _near_faces(m: trimesh.Trimesh, c: np.ndarray, r: float) -> trimesh.Trimesh | None:
@@ -153,13 +161,16 @@ def _first_in_material(part: trimesh.Trimesh, p: np.ndarray, q: np.ndarray, tol:
 
 def thin_walls(part: trimesh.Trimesh, features: Mapping[str, object], min_wall: float,
                spacing: float | None = None, tol: float = 0.05, seed: int = 0,
-               max_candidates: int = 4000) -> list[Wall]:
-    """Every pair of features with a wall thinner than `min_wall` (mm) between them, thinnest first.
+               max_candidates: int = 4000, slack: float = SLACK, separate: Iterable[str] = ()) -> list[Wall]:
+    """Every pair of features with a wall thinner than `min_wall` - `slack` (mm) between them,
+    thinnest first.
 
     `features` maps a name to a solid (CadQuery shape or watertight trimesh) in the part mesh's
     coordinates. `tol` is how far a sample may be from the part's surface and still be on it: at
-    least the mesh's linear tolerance.
+    least the mesh's linear tolerance. Features named in `separate` must not meet any other
+    feature (two screws' holes): one that does is a wall of 0 mm where they meet.
     """
+    separate = set(separate)
     if not (math.isfinite(min_wall) and min_wall > 0):
         raise ValueError(f"min_wall must be a positive number of mm (got {min_wall!r})")
     h = spacing or min(min_wall / 4.0, 0.2)
@@ -180,13 +191,18 @@ def thin_walls(part: trimesh.Trimesh, features: Mapping[str, object], min_wall: 
     for i, a in enumerate(names):
         for b in names[i + 1:]:
             pa, pb = samples[a], samples[b]
+            if a in separate or b in separate:
+                meet = _touch(manis[a], manis[b], box)
+                if meet is not None:
+                    found.append(Wall(a, b, 0.0, tuple(map(float, meet)), tuple(map(float, meet))))
+                    continue
             if not len(pa) or not len(pb):
                 continue
             dist, idx = cKDTree(pb).query(pa, distance_upper_bound=min_wall + h)
             hit = np.isfinite(dist)
             if not hit.any():
                 continue
-            if _touch(manis[a], manis[b], box):
+            if _touch(manis[a], manis[b], box) is not None:
                 continue
             order = np.argsort(dist[hit])[:max_candidates]
             p, q, dd = pa[hit][order], pb[idx[hit][order]], dist[hit][order]
@@ -200,7 +216,7 @@ def thin_walls(part: trimesh.Trimesh, features: Mapping[str, object], min_wall: 
                     break
                 ra, rb = na, nb
             thick = float(np.linalg.norm(rb - ra))
-            if thick < min_wall:
+            if thick < min_wall - slack:
                 found.append(Wall(a, b, thick, tuple(map(float, ra)), tuple(map(float, rb))))
     return sorted(found, key=lambda w: w.thickness)
 
@@ -211,7 +227,7 @@ def wall_check(part_name: str, part: trimesh.Trimesh, features: Mapping[str, obj
     walls = thin_walls(part, features, min_wall, **kw)
     if not walls:
         return _check("thinnest wall between features", part_name, float(min_wall), True, f">= {min_wall:g}",
-                      "mm", parameters, f"none under {min_wall:g} mm among {len(features)} features")
+                      "mm", parameters, f"none under {min_wall:g} mm (less {SLACK:g}) among {len(features)} features")
     w = walls[0]
     more = f" (+{len(walls) - 1} more thin walls)" if len(walls) > 1 else ""
     return _check("thinnest wall between features", part_name, w.thickness, False, f">= {min_wall:g}", "mm",

@@ -43,6 +43,7 @@ class Fastener(BaseModel):
     pitch: float = Field(gt=0)
     head_diameter: float = Field(gt=0)
     head_height: float = Field(gt=0)
+    counterbore: float = Field(gt=0)
     clear_fine: float = Field(gt=0)
     clear_medium: float = Field(gt=0)
     clear_coarse: float = Field(gt=0)
@@ -78,6 +79,8 @@ class Fastener(BaseModel):
             raise ValueError(f"{self.size}: clearance holes must grow fine < medium < coarse and exceed {d:g}")
         if not (d - 2 * self.pitch < self.tap_pilot < d):
             raise ValueError(f"{self.size}: tapping pilot must lie between the minor and the nominal diameter")
+        if not self.counterbore > self.head_diameter:
+            raise ValueError(f"{self.size}: counterbore must be wider than the head")
         if not (self.insert_od > self.insert_hole > d):
             raise ValueError(f"{self.size}: insert hole must lie between the thread and the insert's OD")
         if self.insert_hole_depth < self.insert_length:
