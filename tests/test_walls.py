@@ -46,7 +46,7 @@ def test_hole_near_the_edge_is_refused_with_its_place():
     assert x == pytest.approx(14.8, abs=0.1) and abs(y) < 0.3 and 0 <= z <= 6
 
 
-@pytest.mark.parametrize("hole_x", [8.2, 8.6, 8.9])
+@pytest.mark.parametrize("hole_x", [8.2, 8.6, 8.8])
 def test_measured_wall_follows_the_geometry(hole_x):
     w = walls.thin_walls(*_plate(hole_x), min_wall=1.2)
     assert len(w) == 1 and {w[0].a, w[0].b} == {"lens cone", "M2 hole"}

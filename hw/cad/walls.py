@@ -186,7 +186,8 @@ def thin_walls(part: trimesh.Trimesh, features: Mapping[str, object], min_wall: 
     lo, hi = part.bounds
     # only samples near the part can bound its material
     samples = {n: p[np.all((p >= lo - tol) & (p <= hi + tol), axis=1)] for n, p in samples.items()}
-    box = manifold3d.Manifold.cube(hi - lo).translate(lo)
+    # a hair beyond the part, so an edge feature (which starts at its surface) meets what opens onto it
+    box = manifold3d.Manifold.cube(hi - lo + 0.02).translate(lo - 0.01)
     found: list[Wall] = []
     for i, a in enumerate(names):
         for b in names[i + 1:]:
