@@ -51,7 +51,6 @@ class Bobbin(_S):
     socket_depth: float = Field(gt=0)
     lead_hole: float = Field(gt=0)
     min_wall: float = Field(gt=0)
-    pad: float = Field(gt=0)
 
 
 class WindingJig(_S):
