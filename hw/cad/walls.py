@@ -137,6 +137,62 @@ def _local_min(part: trimesh.Trimesh, fa: trimesh.Trimesh, fb: trimesh.Trimesh, 
     return da[order][k], db[idx[order]][k]
 
 
+def _inside(part: trimesh.Trimesh, pts: np.ndarray) -> np.ndarray:
+    """Points strictly inside the part's material. The closest surface point's face normal decides
+    (inside if the point lies behind the face); where the closest point is on an edge or a vertex
+    (the normal is ambiguous there) trimesh's ray containment decides."""
+    pts = np.asarray(pts, float).reshape(-1, 3)
+    if not len(pts):
+        return np.zeros(0, bool)
+    closest, dist, tri = trimesh.proximity.closest_point(part, pts)
+    side = np.einsum("ij,ij->i", pts - closest, part.face_normals[tri])
+    inside = (side < 0) & (dist > 1e-9)
+    bary = trimesh.triangles.points_to_barycentric(part.triangles[tri], closest)
+    edge = np.any(bary < 1e-6, axis=1)
+    if edge.any():
+        inside[edge] = part.contains(pts[edge])
+    return inside
+
+
+def _part_faces_on(part: trimesh.Trimesh, feature: trimesh.Trimesh, c: np.ndarray, r: float,
+                   tol: float) -> trimesh.Trimesh | None:
+    """The part's faces within `r` of `c` that lie on the feature's surface (a sub-mesh), or None."""
+    tri = part.triangles
+    sel = np.flatnonzero(np.all((tri.min(axis=1) <= c + r) & (tri.max(axis=1) >= c - r), axis=1))
+    if not len(sel):
+        return None
+    # a face lies on the feature if its centre and corners do
+    pts = np.vstack([part.triangles_center[sel], tri[sel].reshape(-1, 3)])
+    _, dist, _ = trimesh.proximity.closest_point(feature, pts)
+    on = (dist[:len(sel)] < tol) & np.all(dist[len(sel):].reshape(-1, 3) < tol, axis=1)
+    return trimesh.Trimesh(part.vertices, part.faces[sel[on]], process=False) if on.any() else None
+
+
+def _project(part: trimesh.Trimesh, fa: trimesh.Trimesh, fb: trimesh.Trimesh, p: np.ndarray, q: np.ndarray,
+             tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Closest points of the part's own faces on the two features near (p, q): alternating
+    projection between the two face sets (they end at the part's edges, so the pair cannot slide
+    off the part), mm."""
+    r = max(1.0, 2.0 * float(np.linalg.norm(q - p)))
+    sa, sb = _part_faces_on(part, fa, p, r, tol), _part_faces_on(part, fb, q, r, tol)
+    if sa is None or sb is None:
+        return p, q
+    a, b = p, q
+    for _ in range(30):
+        b2 = trimesh.proximity.closest_point(sb, a[None])[0][0]
+        a2 = trimesh.proximity.closest_point(sa, b2[None])[0][0]
+        done = np.linalg.norm(a2 - a) < 1e-5 and np.linalg.norm(b2 - b) < 1e-5
+        a, b = a2, b2
+        if done:
+            break
+    # The closest pair often lies on the part's face where both features break out (two rims):
+    # its midpoint is then on that face, the limit of pairs through the material.
+    mid = (a + b) / 2
+    on_face = trimesh.proximity.closest_point(part, mid[None])[1][0] < 1e-6
+    ok = np.linalg.norm(b - a) < np.linalg.norm(q - p) and (on_face or _inside(part, [mid])[0])
+    return (a, b) if ok else (p, q)
+
+
 def _first_in_material(part: trimesh.Trimesh, p: np.ndarray, q: np.ndarray, tol: float) -> int | None:
     """Index of the first pair (p[i], q[i]) with both ends on the part's surface and the segment's
     interior in its material, or None. Tested in growing chunks: containment is the costly test."""
@@ -152,7 +208,7 @@ def _first_in_material(part: trimesh.Trimesh, p: np.ndarray, q: np.ndarray, tol:
         if len(cand):
             ts = (0.25, 0.5, 0.75)
             pts = np.vstack([a[cand] + t * (b[cand] - a[cand]) for t in ts])
-            inside = part.contains(pts).reshape(len(ts), -1).all(axis=0)
+            inside = _inside(part, pts).reshape(len(ts), -1).all(axis=0)
             if inside.any():
                 return start + int(cand[np.flatnonzero(inside)[0]])
         start = stop
@@ -188,6 +244,8 @@ def thin_walls(part: trimesh.Trimesh, features: Mapping[str, object], min_wall: 
     samples = {n: p[np.all((p >= lo - tol) & (p <= hi + tol), axis=1)] for n, p in samples.items()}
     # a hair beyond the part, so an edge feature (which starts at its surface) meets what opens onto it
     box = manifold3d.Manifold.cube(hi - lo + 0.02).translate(lo - 0.01)
+    trees = {n: cKDTree(p) for n, p in samples.items() if len(p)}
+    boxes = {n: (p.min(axis=0) - min_wall, p.max(axis=0) + min_wall) for n, p in samples.items() if len(p)}
     found: list[Wall] = []
     for i, a in enumerate(names):
         for b in names[i + 1:]:
@@ -199,24 +257,29 @@ def thin_walls(part: trimesh.Trimesh, features: Mapping[str, object], min_wall: 
                     continue
             if not len(pa) or not len(pb):
                 continue
-            dist, idx = cKDTree(pb).query(pa, distance_upper_bound=min_wall + h)
+            if np.any(boxes[a][1] < boxes[b][0]) or np.any(boxes[b][1] < boxes[a][0]):
+                continue  # farther apart than a wall
+            swap = len(pa) > len(pb)  # query the smaller set against the larger one's tree
+            x, y, px, py = (b, a, pb, pa) if swap else (a, b, pa, pb)
+            dist, idx = trees[y].query(px, distance_upper_bound=min_wall + h)
             hit = np.isfinite(dist)
             if not hit.any():
                 continue
             if _touch(manis[a], manis[b], box) is not None:
                 continue
             order = np.argsort(dist[hit])[:max_candidates]
-            p, q, dd = pa[hit][order], pb[idx[hit][order]], dist[hit][order]
+            p, q, dd = px[hit][order], py[idx[hit][order]], dist[hit][order]
             k = _first_in_material(part, p, q, tol)
             if k is None:
                 continue
-            ra, rb = p[k], q[k]
+            rx, ry = _project(part, meshes[x], meshes[y], p[k], q[k], tol)
             for _ in range(6):  # walk downhill: each step resamples around the best pair so far
-                na, nb = _local_min(part, meshes[a], meshes[b], ra, rb, h, tol, rng)
-                if np.linalg.norm(nb - na) >= np.linalg.norm(rb - ra) - 1e-4:
+                nx, ny = _local_min(part, meshes[x], meshes[y], rx, ry, h, tol, rng)
+                if np.linalg.norm(ny - nx) >= np.linalg.norm(ry - rx) - 1e-4:
                     break
-                ra, rb = na, nb
-            thick = float(np.linalg.norm(rb - ra))
+                rx, ry = nx, ny
+            thick = float(np.linalg.norm(ry - rx))
+            ra, rb = (ry, rx) if swap else (rx, ry)
             if thick < min_wall - slack:
                 found.append(Wall(a, b, thick, tuple(map(float, ra)), tuple(map(float, rb))))
     return sorted(found, key=lambda w: w.thickness)
