@@ -18,9 +18,9 @@ import shapely
 import trimesh
 from shapely.geometry import Point, Polygon
 
+from whisker import sizing
 from whisker.design import Design
 
-from . import mount as mount_model
 from . import reference, ring
 
 # Tessellation makes round holes polygons; measured sizes may differ from the model by this (mm).
@@ -258,7 +258,7 @@ def mount_checks(mesh: trimesh.Trimesh, membrane_mesh: trimesh.Trimesh, d: Desig
     out.append(_check("membrane ledge", "mount", ledge, ledge >= MIN_GLUE_LEDGE, f">= {MIN_GLUE_LEDGE:g}",
                       "mm", ("membrane.inscribed_radius", "mount.seat_ledge")))
     # Robot mounting holes in the bottom face.
-    bottom = mount_model.levels(d)["bottom"]
+    bottom = sizing.mount_levels(d)["bottom"]
     mh = describe_circles(holes(section(mesh, bottom + 0.5)))
     want = d.mount.mounting_hole_count
     mh_ok = [c for c in mh if abs(c[2] - d.hole(d.mount.mounting_hole_diameter)) < 0.2]
