@@ -144,15 +144,16 @@ def coil_inner_chord_radius(d: "Design") -> float:
 def crowding_bound_radius(d: "Design", count: int | None = None) -> float:
     """Smallest ring radius at which neighbouring coils clear each other at full inward swing, mm.
 
-    Neighbours sit 360/N deg apart. At full inward swing their inner corners are rho from the axis
-    (:func:`coil_inner_chord_radius`), and the chord between them, 2 rho sin(pi/N), must exceed the
-    coil diameter plus the print clearance:
+    Neighbours sit 360/N deg apart. At full inward swing (extension) their inner corners - the
+    inner face's edges at +-D/2 either side of the coil axis - are rho from the sensor axis
+    (:func:`coil_inner_chord_radius`). The chord between two neighbours' facing corners must leave
+    the print clearance c:
 
-        2 rho sin(pi/N) >= D + c,   rho = R - (L/2) cos(theta) - h sin(theta)
+        2 rho sin(pi/N) - D cos(pi/N) >= c,   rho = R - (L/2) cos(theta) - h sin(theta)
 
-    so R >= (D + c) / (2 sin(pi/N)) + (L/2) cos(theta) + h sin(theta), with h the pivot's height
-    above the coil axis. For N = 2 the two coils face each other head on, and the bound is where
-    their inner faces' lowest points meet (chord 2 rho' >= c).
+    so R >= (c/2 + (D/2) cos(pi/N)) / sin(pi/N) + (L/2) cos(theta) + h sin(theta), with h the pivot's
+    height above the coil axis (D coil diameter, L coil length, theta the largest deflection). For
+    N = 2 the two coils face each other head on: their inner faces' lowest points must stay c apart.
     """
     n = count or d.whiskers.count
     c, th = d.coil, math.radians(d.whiskers.max_deflection_deg)
@@ -160,9 +161,11 @@ def crowding_bound_radius(d: "Design", count: int | None = None) -> float:
     h = d.pivot_z - d.coil_axis_z
     if n <= 1:
         return 0.0
-    if n == 2:  # head on: the lowest point of each inner face, (R - L/2, z_axis - D/2), swung inwards
-        return clr / 2 + c.length / 2 * math.cos(th) + (h + c.outer_diameter / 2) * math.sin(th)
-    return (c.outer_diameter + clr) / (2 * math.sin(math.pi / n)) + c.length / 2 * math.cos(th) + h * math.sin(th)
+    swing_in = c.length / 2 * math.cos(th) + h * math.sin(th)
+    if n == 2:  # the lowest point of each inner face, (R - L/2, z_axis - D/2), swung inwards
+        return clr / 2 + swing_in + c.outer_diameter / 2 * math.sin(th)
+    a = math.pi / n
+    return (clr / 2 + c.outer_diameter / 2 * math.cos(a)) / math.sin(a) + swing_in
 
 
 # ---- the rules --------------------------------------------------------------------------------
