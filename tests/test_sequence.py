@@ -18,7 +18,9 @@ def test_default_design_goes_together(variant):
 
 
 def test_coils_wider_than_the_seat_opening_are_refused_naming_the_step():
-    d = default_design("coil.length=7")      # coil reaches 15.5 mm out; the seat opens to 15.2 mm
+    # coil reaches 15.5 mm out; a 16 mm membrane's seat opens to 15.2 mm (membrane size fixed: its
+    # "auto" rule would widen the seat to pass the coils)
+    d = default_design("coil.length=7", "membrane.inscribed_radius=16")
     assert d.whiskers.ring_radius + d.coil.length / 2 > d.neck_radius
     checks = sequence.check_sequence(d, mount.mount(d), "robot")
     failed = [c for c in checks if not c.ok]
@@ -28,7 +30,8 @@ def test_coils_wider_than_the_seat_opening_are_refused_naming_the_step():
 
 
 def test_magnets_that_cannot_pass_the_seat_opening_are_refused():
-    d = default_design("mount.seat_ledge=13.5")   # a 2.5 mm opening: a 4.76 mm magnet cannot pass
+    # a 2.5 mm opening: a 4.76 mm magnet cannot pass
+    d = default_design("mount.seat_ledge=13.5", "membrane.inscribed_radius=16")
     failed = [c for c in sequence.check_sequence(d, mount.mount(d), "bench") if not c.ok]
     assert failed[0].name.startswith("assembly step 1: magnets") and "no such path" in failed[0].detail
 

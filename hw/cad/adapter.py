@@ -20,17 +20,16 @@ import math
 import cadquery as cq
 import numpy as np
 
-from whisker import fasteners
+from whisker import fasteners, sizing
 from whisker.design import Design
 
-from . import extras, mount
+from . import extras
 from .shapes import cut_all, cylinder, polar_xy
 
 
 def sensor_angles(d: Design) -> list[float]:
     """Angles (deg) of the mount's screws, as mount.py places them."""
-    n = d.mount.mounting_hole_count
-    return [90.0 + 360.0 * k / n for k in range(n)]
+    return list(sizing.mounting_hole_angles(d))
 
 
 def bolt_offset(d: Design, count: int, pitch_radius: float = 0.0, hole_radius: float = 0.0) -> float:
@@ -72,7 +71,7 @@ def layout(d: Design, preset: str | None = None) -> dict:
         if gap < (cb_r + cb_s) / 2 + d.print.min_wall:
             t = max(t, robot.head_height + sensor.head_height + 1.0 + d.print.min_wall)
     t = _stock_thickness(t, a, sensor, robot, fl)
-    top = mount.levels(d)["bottom"]
+    top = sizing.mount_levels(d)["bottom"]
     radius = max(fl.flange_diameter / 2, d.mount.outer_radius, d.mount.mounting_bolt_radius + cb_s / 2 + d.print.min_wall + 0.1,
                  (fl.pitch_diameter + cb_r) / 2 + d.print.min_wall + 0.1 if robot else 0.0)
     return dict(settings=a, flange=fl, sensor=sensor, robot=robot, thickness=t, top=top, bottom=top - t,

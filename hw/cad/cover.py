@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import cadquery as cq
 
-from whisker import fasteners
+from whisker import fasteners, sizing
 from whisker.design import Design
 
-from . import extras, mount
+from . import extras
 from .shapes import cut_all, cylinder
 from .walls import outside_box
 
@@ -23,7 +23,7 @@ def layout(d: Design) -> dict:
     c = extras.section(d, "cover")
     f = fasteners.fastener(c.screw)
     w, h = d.hole(d.camera.board_width), d.hole(d.camera.board_height)
-    top = mount.levels(d)["bottom"]
+    top = sizing.mount_levels(d)["bottom"]
     t = c.thickness + c.relief_depth
     t = max(t, f.head_height + 0.5 + d.print.min_wall)
     # room for a counterbored screw between the pocket and the edge, a wall each side

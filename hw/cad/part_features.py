@@ -13,6 +13,7 @@ import math
 
 import cadquery as cq
 
+from whisker import sizing
 from whisker.design import Design
 
 from . import mold, mount, ring
@@ -23,13 +24,13 @@ Features = dict[str, cq.Shape]
 
 
 def mount_features(d: Design) -> Features:
-    z = mount.levels(d)
+    z = sizing.mount_levels(d)
     m, cam = d.mount, d.camera
     f: Features = {
         "membrane seat": polygon_prism(d.membrane.sides, d.membrane.inscribed_radius + d.print.clearance,
                                        z["seat"], z["top"] + 1),
         "lens cone and coil cavity": mount.cavity_profile(d, z),
-        "LED groove": cylinder(mount.led_outer_radius(d), z["led_bottom"], z["led_top"]),
+        "LED groove": cylinder(sizing.led_outer_radius(d), z["led_bottom"], z["led_top"]),
         "camera pocket": cq.Solid.makeBox(d.hole(cam.board_width), d.hole(cam.board_height),
                                           z["board_face"] - z["bottom"] + 1,
                                           cq.Vector(-d.hole(cam.board_width) / 2, -d.hole(cam.board_height) / 2,
@@ -40,20 +41,18 @@ def mount_features(d: Design) -> Features:
         "outer rim": outside_ring(m.outer_radius, z["bottom"], z["top"]),
     }
     for i, a in enumerate(d.whisker_angles_deg):
-        f[f"magnet pocket {i}"] = radial_cylinder(d.cavity_radius - 0.5, mount.pocket_outer_radius(d),
+        f[f"magnet pocket {i}"] = radial_cylinder(d.cavity_radius - 0.5, sizing.pocket_outer_radius(d),
                                                   d.hole(d.magnet.diameter), z["pocket"], a)
     hx, hy = cam.hole_spacing_x / 2, cam.hole_spacing_y / 2
     for sx in (-1, 1):
         for sy in (-1, 1):
             f[f"camera M2 hole ({sx * hx:+g}, {sy * hy:+g})"] = cylinder(
                 cam.hole_diameter / 2, z["board_face"] - 0.5, z["board_face"] + 5, sx * hx, sy * hy)
-    for k in range(m.mounting_hole_count):
+    for k, a in enumerate(sizing.mounting_hole_angles(d)):
         f[f"mounting hole {k}"] = cylinder(d.hole(m.mounting_hole_diameter) / 2, z["bottom"] - 1,
-                                           z["bottom"] + m.mounting_hole_depth,
-                                           *polar_xy(m.mounting_bolt_radius, 90 + 360 * k / m.mounting_hole_count))
-    for k in range(m.cable_exit_count):
-        f[f"cable exit {k}"] = radial_cylinder(0, m.outer_radius + 1, d.hole(m.cable_exit_diameter), z["cable"],
-                                               180.0 / d.whiskers.count + 360.0 * k / m.cable_exit_count)
+                                           z["bottom"] + m.mounting_hole_depth, *polar_xy(m.mounting_bolt_radius, a))
+    for k, a in enumerate(sizing.cable_exit_angles(d)):
+        f[f"cable exit {k}"] = radial_cylinder(0, m.outer_radius + 1, d.hole(m.cable_exit_diameter), z["cable"], a)
     return f
 
 

@@ -21,10 +21,10 @@ import cadquery as cq
 import manifold3d
 import numpy as np
 
+from whisker import sizing
 from whisker.design import Design, DesignError
 from whisker.files import read_toml
 
-from . import mount as mount_model
 from . import reference
 from .checks import VOLUME_EPS, Check, _check, to_mesh
 
@@ -57,7 +57,7 @@ def load_steps(path: str | Path = SEQUENCE) -> list[Step]:
 # ---- the pieces, in their final places ---------------------------------------------------------
 
 def _camera(d: Design) -> list[tuple[str, cq.Shape]]:
-    cam, z = d.camera, mount_model.levels(d)
+    cam, z = d.camera, sizing.mount_levels(d)
     board = cq.Solid.makeBox(cam.board_width, cam.board_height, cam.board_thickness,
                              cq.Vector(-cam.board_width / 2, -cam.board_height / 2, z["board_face"] - cam.board_thickness))
     holder = cq.Solid.makeBox(cam.lens_block, cam.lens_block, cam.lens_height,
@@ -66,8 +66,8 @@ def _camera(d: Design) -> list[tuple[str, cq.Shape]]:
 
 
 def _led_strip(d: Design) -> list[tuple[str, cq.Shape]]:
-    z, m = mount_model.levels(d), d.mount
-    ro = mount_model.led_outer_radius(d) - d.print.clearance
+    z, m = sizing.mount_levels(d), d.mount
+    ro = sizing.led_outer_radius(d) - d.print.clearance
     ri = ro - m.led_strip_thickness
     zc, w = (z["led_top"] + z["led_bottom"]) / 2, m.led_strip_width
     band = cq.Solid.makeCylinder(ro, w, cq.Vector(0, 0, zc - w / 2)).cut(cq.Solid.makeCylinder(ri, w, cq.Vector(0, 0, zc - w / 2)))
