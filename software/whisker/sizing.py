@@ -193,7 +193,7 @@ def pour_diameter(d: "Design", auto: frozenset = frozenset()) -> float:
     """The largest opening up to mold.max_pour_diameter that leaves print.min_wall between the pour
     opening and the rod guides (the lid) and sockets (the whisker ring)."""
     room = 2 * (d.whiskers.ring_radius - d.hole(d.whiskers.rod_diameter) / 2 - d.print.min_wall)
-    return round(min(d.mold.max_pour_diameter, room), 3)
+    return floor_step(min(d.mold.max_pour_diameter, room), 0.001)
 
 
 def _mounting_hole_needs(d: "Design") -> float:
