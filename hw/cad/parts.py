@@ -11,7 +11,7 @@ import trimesh
 
 from whisker.design import Design
 
-from . import coupon, mold, mount, reference, ring
+from . import adapter, bobbin, coupon, cover, mold, mount, reference, ring, winding_jig
 
 
 @dataclass(frozen=True)
@@ -31,8 +31,16 @@ PARTS: tuple[PartSpec, ...] = (
     PartSpec("mold_lid", mold.mold_lid, True, "membrane mould, lid: rod guides, pour opening, vents"),
     PartSpec("whisker_ring", ring.whisker_ring, True, "gluing/casting jig holding the rods at the ring radius",
              flip_to_print=True),
+    PartSpec("adapter", adapter.adapter, True,
+             "robot adapter plate: ISO 9409-1 flange (adapter.preset) below, the mount's screws from below",
+             flip_to_print=True),
+    PartSpec("cover", cover.cover, True, "camera cover closing the camera pocket from below (without the adapter)"),
+    PartSpec("winding_jig", winding_jig.winding_jig, True,
+             "coil winding arbor for a hand drill: bobbin pocket, a flag and a magnet per turn", flip_to_print=True),
     PartSpec("tolerance_coupon", coupon.tolerance_coupon, True,
              "print-tolerance coupon: rod holes and magnet pockets at print.coupon_clearances, labelled"),
+    PartSpec("bobbin", bobbin.bobbin, False,
+             "coil former, whisker 0: resin (MSLA) print, not sliced here; rod tab, core, flange"),
     PartSpec("membrane", reference.membrane, False, "cast Ecoflex membrane (reference, not printed)"),
     PartSpec("rod", reference.rod, False, "carbon-fibre whisker rod, whisker 0 (reference)"),
     PartSpec("coil", reference.coil, False, "disc coil, whisker 0 (reference)"),
