@@ -63,7 +63,7 @@ def test_bolt_pattern_on_the_mesh_matches_the_preset(designs, meshes, preset):
 def test_mount_screws_land_on_the_mounts_holes(designs, meshes, preset):
     d = designs[preset]
     L = adapter.layout(d, preset)
-    clear = fz.hole(L["settings"].sensor_screw, "through").diameter
+    clear = fz.hole(d.fasteners.mount_screw, "through").diameter
     circles = describe_circles(holes(section(meshes[preset], L["top"] - 0.5 - L["settings"].relief_depth)))
     found = [c for c in circles if abs(c[2] - clear) < 0.15]
     assert len(found) == d.mount.mounting_hole_count

@@ -33,7 +33,7 @@ def test_a_number_in_the_file_pins_the_value():
     assert (d.membrane.inscribed_radius, d.mount.outer_radius, d.camera.distance) == (18.0, 25.0, 40.0)
     assert d.source("membrane.inscribed_radius") == "file"
     # the bolt circle still follows the pinned outer radius
-    assert d.mount.mounting_bolt_radius == pytest.approx(25 - d.hole(d.mount.mounting_hole_diameter) / 2
+    assert d.mount.mounting_bolt_radius == pytest.approx(25 - d.mounting_hole_diameter / 2
                                                          - d.print.min_wall, abs=0.1)
 
 
@@ -58,7 +58,7 @@ def test_rules_keep_their_promises(count, radius):
     # the mount keeps min_wall outside its inner features and its robot holes
     w = d.print.min_wall
     assert d.mount.outer_radius >= sizing.pocket_outer_radius(d) + w
-    hole_r = d.hole(d.mount.mounting_hole_diameter) / 2
+    hole_r = d.mounting_hole_diameter / 2
     assert d.mount.outer_radius - d.mount.mounting_bolt_radius - hole_r >= w - 1e-9
     # the ring keeps its size in the image; the pour opening leaves min_wall to the rod guides
     if d.camera.distance > d.marker_z - sizing.mount_levels(d)["cylinder_bottom"] + 1e-6:

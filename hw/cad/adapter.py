@@ -5,7 +5,7 @@ Under the mount's bottom face (sensor coordinates, mm) a round plate carries
   pitch circle, counterbored from the top (DIN 974-1) so the heads sit below the mount, the
   centring spigot that fits the flange's H7 bore and the positioning-pin hole; ``plain`` has none;
 - the mount's own screws (``mount.mounting_hole_*``), coming up from the robot face through
-  clearance holes, counterbored from below, into the mount (``adapter.sensor_joint``);
+  clearance holes, counterbored from below, into the mount (``fasteners.mount_screw`` in ``fasteners.mount_joint``);
 - a relief in the top face for the camera board's back and the flat cable, open towards -y.
 
 The robot bolts are turned to the angle farthest from the mount's screws. Assembly: the robot
@@ -55,7 +55,7 @@ def layout(d: Design, preset: str | None = None) -> dict:
     """Numbers of the plate (mm, deg): thickness, radius, top/bottom z, bolt angles, screws."""
     a = extras.section(d, "adapter", **({"preset": preset} if preset else {}))
     fl = extras.flange(a.preset)
-    sensor = fasteners.fastener(a.sensor_screw)
+    sensor = fasteners.fastener(d.fasteners.mount_screw)
     robot = fasteners.fastener(fl.thread) if fl.bolt_count else None
     # Printed counterbores: the head plus the print clearance (DIN 974-1's drilled sizes are wider).
     cb_s = min(sensor.counterbore, d.hole(sensor.head_diameter))
@@ -70,7 +70,7 @@ def layout(d: Design, preset: str | None = None) -> dict:
                   for b in angles for s in sensor_angles(d)) if sensor_angles(d) else math.inf
         if gap < (cb_r + cb_s) / 2 + d.print.min_wall:
             t = max(t, robot.head_height + sensor.head_height + 1.0 + d.print.min_wall)
-    t = _stock_thickness(t, a, sensor, robot, fl)
+    t = _stock_thickness(t, d, sensor, robot, fl)
     top = sizing.mount_levels(d)["bottom"]
     radius = max(fl.flange_diameter / 2, d.mount.outer_radius, d.mount.mounting_bolt_radius + cb_s / 2 + d.print.min_wall + 0.1,
                  (fl.pitch_diameter + cb_r) / 2 + d.print.min_wall + 0.1 if robot else 0.0)
@@ -78,20 +78,20 @@ def layout(d: Design, preset: str | None = None) -> dict:
                 radius=radius, bolt_angles=angles, counterbore_sensor=cb_s, counterbore_robot=cb_r)
 
 
-def _stock_thickness(t0: float, a, sensor, robot, fl) -> float:
+def _stock_thickness(t0: float, d: Design, sensor, robot, fl) -> float:
     """The thinnest plate >= t0 (0.1 mm steps) for which both screw sets have a stock length with
     their engagement in the fastener table's range (the clamp is the plate under each head)."""
     for k in range(0, 301):
         t = round(t0 + 0.1 * k, 3)
         try:
-            fasteners.screw_length(a.sensor_screw, a.sensor_joint, t - sensor.head_height - 0.5)
+            fasteners.screw_length(d.fasteners.mount_screw, d.fasteners.mount_joint, t - sensor.head_height - 0.5)
             if robot:
                 fasteners.screw_length(fl.thread, "through", t - robot.head_height - 0.5, fl.thread_depth)
         except fasteners.FastenerError:
             continue
         return t
     raise fasteners.FastenerError(f"adapter: no plate from {t0:g} to {t0 + 30:g} mm thick lets stock "
-                                  f"{a.sensor_screw} and {fl.thread or '-'} screws engage within the table's range")
+                                  f"{d.fasteners.mount_screw} and {fl.thread or '-'} screws engage within the table's range")
 
 
 def adapter_tools(d: Design, preset: str | None = None) -> dict[str, cq.Shape]:
@@ -156,7 +156,8 @@ def joints(d: Design, preset: str | None = None) -> list[fasteners.Joint]:
     L = layout(d, preset)
     a, fl = L["settings"], L["flange"]
     t = L["thickness"]
-    out = [fasteners.Joint("mount to adapter", a.sensor_screw, a.sensor_joint, d.mount.mounting_hole_count,
+    out = [fasteners.Joint("mount to adapter", d.fasteners.mount_screw, d.fasteners.mount_joint,
+                           d.mount.mounting_hole_count,
                            t - L["sensor"].head_height - 0.5, None)]
     if fl.bolt_count:
         out.append(fasteners.Joint(f"adapter to robot ({fl.designation})", fl.thread, "through", fl.bolt_count,

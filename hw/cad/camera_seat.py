@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import cadquery as cq
 
-from whisker import camera_boards, fasteners
+from whisker import camera_boards, fasteners, sizing
 from whisker.design import Design
 
 from .shapes import cylinder
@@ -35,15 +35,19 @@ def board(d: Design, profile: camera_boards.Profile, board_face: float) -> dict[
     return {"camera board": pcb, "lens holder": holder}
 
 
+def _pocket(d: Design, p: camera_boards.Placement) -> tuple[float, float, float, float]:
+    (cx, cy), (w, h) = p.board_centre, p.board_size
+    w, h = d.hole(w), d.hole(h)
+    return cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2
+
+
 def seat_tools(d: Design, profile: camera_boards.Profile, board_face: float, bottom: float,
                screw: str = "M2", joint: str = "tap", depth: float = 5.0) -> dict[str, cq.Shape]:
     """Named solids to cut from the mount: the board pocket (open at the bottom, print clearance
     all round) and one screw hole per board hole (``fasteners.hole(screw, joint)``)."""
     p = placement(profile)
-    (cx, cy), (w, h) = p.board_centre, p.board_size
-    pw, ph = d.hole(w), d.hole(h)
-    tools = {"camera pocket": cq.Solid.makeBox(pw, ph, board_face - bottom + 1,
-                                               cq.Vector(cx - pw / 2, cy - ph / 2, bottom - 1))}
+    x0, y0, x1, y1 = sizing.camera_pocket_box(d) if d.camera.board == profile.name else _pocket(d, p)
+    tools = {"camera pocket": cq.Solid.makeBox(x1 - x0, y1 - y0, board_face - bottom + 1, cq.Vector(x0, y0, bottom - 1))}
     hole = fasteners.hole(screw, joint)
     for i, (x, y) in enumerate(p.holes):
         tools[f"camera {screw} hole {i}"] = cylinder(hole.diameter / 2, board_face - 0.5, board_face + depth, x, y)

@@ -285,7 +285,7 @@ def mount_checks(mesh: trimesh.Trimesh, membrane_mesh: trimesh.Trimesh, d: Desig
     bottom = sizing.mount_levels(d)["bottom"]
     mh = describe_circles(holes(section(mesh, bottom + 0.5)))
     want = d.mount.mounting_hole_count
-    mh_ok = [c for c in mh if abs(c[2] - d.hole(d.mount.mounting_hole_diameter)) < 0.2]
+    mh_ok = [c for c in mh if abs(c[2] - d.mounting_hole_diameter) < 0.2]
     out.append(_check("mounting holes found", "mount", len(mh_ok), len(mh_ok) == want, f"== {want}", "",
                       ("mount.mounting_hole_count", "mount.mounting_bolt_radius", "mount.ribbon_width"),
                       "a hole runs into the camera pocket or cable slot" if len(mh_ok) != want else ""))

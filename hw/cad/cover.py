@@ -21,7 +21,7 @@ from .walls import outside_box
 
 def layout(d: Design) -> dict:
     c = extras.section(d, "cover")
-    f = fasteners.fastener(c.screw)
+    f = fasteners.fastener(d.fasteners.cover_screw)
     w, h = d.hole(d.camera.board_width), d.hole(d.camera.board_height)
     top = sizing.mount_levels(d)["bottom"]
     t = c.thickness + c.relief_depth
@@ -64,6 +64,5 @@ def cover(d: Design) -> cq.Shape:
 
 def joints(d: Design) -> list[fasteners.Joint]:
     L = layout(d)
-    c = L["settings"]
-    return [fasteners.Joint("camera cover", c.screw, c.joint, len(L["screws"]),
+    return [fasteners.Joint("camera cover", d.fasteners.cover_screw, d.fasteners.cover_joint, len(L["screws"]),
                             L["thickness"] - L["screw"].head_height - 0.5)]

@@ -17,17 +17,31 @@ from whisker.design import Design
 
 from .shapes import cut_all, cylinder, polar_xy, polygon_points, polygon_prism
 
-# Uneven so the lid cannot be put on turned; offsets (deg) from the first polygon flat.
+# Uneven so the lid cannot be put on turned: the polygon flats nearest these angles (deg).
 PIN_ANGLES_DEG = (0.0, 90.0, 200.0)
 
 
 def outer_radius(d: Design) -> float:
-    return d.membrane_circumradius + d.mold.wall
+    """mold.wall around the cavity's corners, and at least room at a flat for a pin hole with
+    print.min_wall to the cavity and to the edge, mm."""
+    pin = d.hole(d.mold.pin_diameter) + 2 * d.print.min_wall + 0.1
+    return max(d.membrane_circumradius + d.mold.wall, d.membrane.inscribed_radius + pin)
+
+
+def pin_angles(d: Design) -> list[float]:
+    """The pins sit on the middles of polygon flats (the most material), deg."""
+    n = d.membrane.sides
+    flats = [360.0 * k / n for k in range(n)]
+    out: list[float] = []
+    for want in PIN_ANGLES_DEG:
+        free = [f for f in flats if f not in out]
+        out.append(min(free, key=lambda f: abs((f - want + 180) % 360 - 180)))
+    return out
 
 
 def pin_positions(d: Design) -> list[tuple[float, float]]:
-    r = (d.membrane_circumradius + outer_radius(d)) / 2
-    return [polar_xy(r, a) for a in PIN_ANGLES_DEG]
+    r = (d.membrane.inscribed_radius + outer_radius(d)) / 2
+    return [polar_xy(r, a) for a in pin_angles(d)]
 
 
 def mold_base(d: Design) -> cq.Shape:

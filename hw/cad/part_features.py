@@ -1,10 +1,9 @@
 """Named features (the solids cut from a part, and the space around its edges) of the printed parts,
 for the wall check (whisker.cad.walls). Units: mm, sensor coordinates.
 
-These repeat the cutting tools of mount.py, mold.py and ring.py with names. They are kept in step
-by tests/test_walls.py, which cuts them from each part's body and compares the volume with the part
-(so a tool changed in one place and not the other fails there). The parts should build from these
-named tools once their modules are free to change (issue 13 is reshaping them).
+The mount's are its own named tools (mount.mount_tools). The moulds' and the ring's repeat the
+cutting tools of mold.py and ring.py with names; tests/test_walls.py checks that each is cut from
+its part and touches it, so a tool changed in one place and not the other fails there.
 """
 
 from __future__ import annotations
@@ -17,7 +16,7 @@ from whisker import sizing
 from whisker.design import Design
 
 from . import mold, mount, ring
-from .shapes import cylinder, polar_xy, polygon_points, polygon_prism, radial_cylinder
+from .shapes import cylinder, polar_xy, polygon_points, polygon_prism
 from .walls import outside_ring
 
 Features = dict[str, cq.Shape]
@@ -25,35 +24,7 @@ Features = dict[str, cq.Shape]
 
 def mount_features(d: Design) -> Features:
     z = sizing.mount_levels(d)
-    m, cam = d.mount, d.camera
-    f: Features = {
-        "membrane seat": polygon_prism(d.membrane.sides, d.membrane.inscribed_radius + d.print.clearance,
-                                       z["seat"], z["top"] + 1),
-        "lens cone and coil cavity": mount.cavity_profile(d, z),
-        "LED groove": cylinder(sizing.led_outer_radius(d), z["led_bottom"], z["led_top"]),
-        "camera pocket": cq.Solid.makeBox(d.hole(cam.board_width), d.hole(cam.board_height),
-                                          z["board_face"] - z["bottom"] + 1,
-                                          cq.Vector(-d.hole(cam.board_width) / 2, -d.hole(cam.board_height) / 2,
-                                                    z["bottom"] - 1)),
-        "flat-cable slot": cq.Solid.makeBox(m.ribbon_width, m.outer_radius + 1,
-                                            cam.board_thickness + m.camera_recess + m.ribbon_thickness + 1,
-                                            cq.Vector(-m.ribbon_width / 2, -m.outer_radius - 1, z["bottom"] - 1)),
-        "outer rim": outside_ring(m.outer_radius, z["bottom"], z["top"]),
-    }
-    for i, a in enumerate(d.whisker_angles_deg):
-        f[f"magnet pocket {i}"] = radial_cylinder(d.cavity_radius - 0.5, sizing.pocket_outer_radius(d),
-                                                  d.hole(d.magnet.diameter), z["pocket"], a)
-    hx, hy = cam.hole_spacing_x / 2, cam.hole_spacing_y / 2
-    for sx in (-1, 1):
-        for sy in (-1, 1):
-            f[f"camera M2 hole ({sx * hx:+g}, {sy * hy:+g})"] = cylinder(
-                cam.hole_diameter / 2, z["board_face"] - 0.5, z["board_face"] + 5, sx * hx, sy * hy)
-    for k, a in enumerate(sizing.mounting_hole_angles(d)):
-        f[f"mounting hole {k}"] = cylinder(d.hole(m.mounting_hole_diameter) / 2, z["bottom"] - 1,
-                                           z["bottom"] + m.mounting_hole_depth, *polar_xy(m.mounting_bolt_radius, a))
-    for k, a in enumerate(sizing.cable_exit_angles(d)):
-        f[f"cable exit {k}"] = radial_cylinder(0, m.outer_radius + 1, d.hole(m.cable_exit_diameter), z["cable"], a)
-    return f
+    return {**mount.mount_tools(d), "outer rim": outside_ring(d.mount.outer_radius, z["bottom"], z["top"])}
 
 
 def mold_base_features(d: Design) -> Features:

@@ -57,12 +57,10 @@ def load_steps(path: str | Path = SEQUENCE) -> list[Step]:
 # ---- the pieces, in their final places ---------------------------------------------------------
 
 def _camera(d: Design) -> list[tuple[str, cq.Shape]]:
-    cam, z = d.camera, sizing.mount_levels(d)
-    board = cq.Solid.makeBox(cam.board_width, cam.board_height, cam.board_thickness,
-                             cq.Vector(-cam.board_width / 2, -cam.board_height / 2, z["board_face"] - cam.board_thickness))
-    holder = cq.Solid.makeBox(cam.lens_block, cam.lens_block, cam.lens_height,
-                              cq.Vector(-cam.lens_block / 2, -cam.lens_block / 2, z["board_face"]))
-    return [("camera board", board), ("lens holder", holder)]
+    from whisker.camera_boards import profile
+
+    from .camera_seat import board
+    return list(board(d, profile(d.camera.board), sizing.mount_levels(d)["board_face"]).items())
 
 
 def _led_strip(d: Design) -> list[tuple[str, cq.Shape]]:
@@ -103,7 +101,7 @@ PARAMETERS = {
     "rods": ("whiskers.ring_radius", "whiskers.rod_diameter"),
     "coils": ("coil.length", "coil.outer_diameter", "whiskers.ring_radius", "membrane.inscribed_radius",
               "mount.seat_ledge"),
-    "camera": ("camera.board_width", "camera.board_height", "camera.lens_block", "camera.lens_height"),
+    "camera": ("camera.board", "mount.camera_recess"),
     "led_strip": ("mount.led_strip_width", "mount.led_strip_thickness"),
     "adapter": ("adapter.preset",),
     "cover": ("cover.thickness",),

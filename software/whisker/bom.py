@@ -425,7 +425,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
     mt = d.mount
     add("m3_screw", "buy", "M3 screws for the robot adapter", _num(mt.mounting_hole_count), "pcs",
         f"M3 socket head, engaging at most {mt.mounting_hole_depth:g} mm", "any",
-        f"{mt.mounting_hole_count} blind {mt.mounting_hole_diameter:g} mm holes on a "
+        f"{mt.mounting_hole_count} blind {d.mounting_hole_diameter:g} mm holes on a "
         f"{mt.mounting_bolt_radius:g} mm radius; length = adapter thickness + thread engagement")
     add("m2_screw", "buy", "M2 screws for the camera board", "4", "pcs",
         f"M2 x 6 mm self-tapping for plastics (holes {cam.hole_diameter:g} mm)", "any",

@@ -114,14 +114,48 @@ class Camera(_Section):
     focal_length_px: float = Field(gt=0, le=100000, description="px")
     width_px: int = Field(ge=16, le=100000)
     height_px: int = Field(ge=16, le=100000)
-    board_width: float = Field(gt=0, le=200, description="mm")
-    board_height: float = Field(gt=0, le=200, description="mm")
-    board_thickness: float = Field(gt=0, le=20, description="mm")
-    lens_height: float = Field(gt=0, le=100, description="mm, board front face to optical centre")
-    lens_block: float = Field(gt=0, le=100, description="mm, square lens holder")
-    hole_spacing_x: float = Field(gt=0, le=200, description="mm")
-    hole_spacing_y: float = Field(gt=0, le=200, description="mm")
-    hole_diameter: float = Field(gt=0, le=20, description="mm")
+    board: str = Field("ov5647_m12", min_length=1, description=(
+        "camera board profile (hw/camera_boards.toml): the one source of the board's outline, holes, lens "
+        "offset and holder; `whisker design show` lists them"))
+    # Read from the board profile; a design file may repeat them only with the profile's values.
+    board_width: float | None = Field(default=None, validate_default=True, description="mm, from the profile")
+    board_height: float | None = Field(default=None, validate_default=True, description="mm, from the profile")
+    board_thickness: float | None = Field(default=None, validate_default=True, description="mm, from the profile")
+    lens_height: float | None = Field(default=None, validate_default=True,
+                                      description="mm, board front face to optical centre, from the profile")
+    lens_block: float | None = Field(default=None, validate_default=True,
+                                     description="mm, the lens holder's larger side, from the profile")
+    hole_spacing_x: float | None = Field(default=None, validate_default=True, description="mm, from the profile")
+    hole_spacing_y: float | None = Field(default=None, validate_default=True, description="mm, from the profile")
+    hole_diameter: float | None = Field(default=None, validate_default=True,
+                                        description="mm, the board's holes, from the profile")
+
+    @field_validator("board")
+    @classmethod
+    def _board_known(cls, v: str) -> str:
+        from whisker.camera_boards import CameraBoardError, profile
+        try:
+            profile(v)
+        except CameraBoardError as err:
+            raise ValueError(str(err)) from None
+        return v
+
+    @field_validator("board_width", "board_height", "board_thickness", "lens_height", "lens_block",
+                     "hole_spacing_x", "hole_spacing_y", "hole_diameter")
+    @classmethod
+    def _from_board(cls, v: float | None, info) -> float | None:
+        if "board" not in info.data:
+            return v  # the profile's own error is reported
+        from whisker.camera_boards import profile
+        p = profile(info.data["board"])
+        have = {"board_width": p.board.width, "board_height": p.board.height, "board_thickness": p.board.thickness,
+                "lens_height": p.lens.optical_centre_height, "lens_block": max(p.lens.holder),
+                "hole_spacing_x": p.holes.spacing_x, "hole_spacing_y": p.holes.spacing_y,
+                "hole_diameter": p.holes.diameter}[info.field_name]
+        if v is not None and abs(v - have) > 1e-9 * max(1.0, abs(have)):
+            raise ValueError(f"comes from the camera board profile {info.data['board']} ({have:g} there); "
+                             "edit hw/camera_boards.toml or set camera.board")
+        return float(have)
 
 
 class Mount(_Section):
@@ -134,8 +168,8 @@ class Mount(_Section):
     flange_thickness: float = Field(gt=0, le=20, description="mm, seat flange above the (wider) coil cavity")
     camera_recess: float = Field(ge=0, le=50, description="mm below the camera board")
     mounting_hole_count: int = Field(ge=0, le=12)
-    mounting_hole_diameter: float = Field(gt=0, le=20, description="mm")
-    mounting_hole_depth: float = Field(gt=0, le=100, description="mm")
+    mounting_hole_depth: float = Field(gt=0, le=100, description="mm, blind; the hole's diameter comes from "
+                                       "fasteners.mount_screw / mount_joint")
     mounting_bolt_radius: AutoMm = Field(description="mm; auto: as far out as the outer wall allows")
     cable_exit_diameter: float = Field(gt=0, le=20, description="mm")
     cable_exit_count: AutoCount = Field(description="auto: one per four coils")
@@ -284,6 +318,62 @@ class Winding(_Section):
     fill_factor: float = Field(0.55, gt=0, lt=0.907, description="copper area / winding window area")
 
 
+Joint = Literal["insert", "tap", "through"]
+
+
+class Fasteners(_Section):
+    """Each fastened joint's screw (hw/fasteners.csv) and how it holds in the printed part:
+    insert (heat-set), tap (thread-forming into a pilot) or through (a clearance hole and a nut)."""
+
+    camera_screw: str = Field("M2", description="camera board to the mount")
+    camera_joint: Joint = "tap"
+    mount_screw: str = Field("M3", description="mount to the robot adapter, from below")
+    mount_joint: Joint = "insert"
+    cover_screw: str = Field("M2", description="camera cover to the mount, from below")
+    cover_joint: Joint = "tap"
+
+    @field_validator("camera_screw", "mount_screw", "cover_screw")
+    @classmethod
+    def _known(cls, v: str) -> str:
+        from whisker.fasteners import FastenerError, fastener
+        try:
+            fastener(v)
+        except FastenerError as err:
+            raise ValueError(str(err)) from None
+        return v
+
+
+class Adapter(_Section):
+    preset: str = Field("iso9409_50_4_m6", description="robot flange, a row of hw/flanges.csv (ISO 9409-1) or plain")
+    under_head: float = Field(4.0, gt=0, le=50, description="mm of plate under each screw head at least")
+    relief_depth: float = Field(2.5, ge=0, le=20, description="mm, top-face pocket for the board's back and cable")
+
+
+class Cover(_Section):
+    thickness: float = Field(2.0, gt=0, le=20, description="mm under the relief")
+    relief_depth: float = Field(2.5, ge=0, le=20, description="mm, room for the board's back and the flat cable")
+    margin: float = Field(4.5, gt=0, le=30, description="mm of cover around the pocket (grows to hold the screws)")
+
+
+class Bobbin(_Section):
+    flange: float = Field(0.35, gt=0, le=5, description="mm, outer flange thickness (resin print)")
+    rim_margin: float = Field(0.15, ge=0, le=2, description="mm of flange outside the outermost turn")
+    tab: float = Field(2.0, gt=0, le=10, description="mm, rod tab thickness along the coil axis")
+    socket_depth: float = Field(2.0, gt=0, le=20, description="mm of rod above the coil axis in the tab, at most")
+    lead_hole: float = Field(0.35, gt=0, le=2, description="mm, the two lead holes beside the rod")
+    min_wall: float = Field(0.3, gt=0, le=5, description="mm, the resin process's thinnest wall")
+
+
+class WindingJig(_Section):
+    shank_diameter: float = Field(6.0, gt=0, le=13, description="mm, for a drill chuck")
+    shank_length: float = Field(25.0, gt=0, le=100, description="mm")
+    disc_diameter: float = Field(24.0, gt=0, le=100, description="mm")
+    disc_thickness: float = Field(4.0, gt=0, le=20, description="mm")
+    flag_length: float = Field(6.0, gt=0, le=50, description="mm the counting flag reaches past the disc")
+    flag_width: float = Field(3.0, gt=0, le=20, description="mm")
+    counter_magnet: tuple[float, float] = Field((3.0, 2.0), description="mm, counting magnet diameter x height")
+
+
 class Design(_Section):
     """The whole sensor. Build one with :func:`load_design`."""
 
@@ -306,6 +396,11 @@ class Design(_Section):
     mechanics: Mechanics
     thermal: Thermal
     driver: Driver
+    fasteners: Fasteners = Field(default_factory=Fasteners)
+    adapter: Adapter = Field(default_factory=Adapter)
+    cover: Cover = Field(default_factory=Cover)
+    bobbin: Bobbin = Field(default_factory=Bobbin)
+    winding_jig: WindingJig = Field(default_factory=WindingJig)
 
     # "section.key" -> the rule's reason, for every value a rule sized (empty: all from the file).
     _rules: dict[str, str] = PrivateAttr(default_factory=dict)
@@ -333,6 +428,11 @@ class Design(_Section):
         # measured on the solids by whisker.cad.checks instead.
         if self.coil.inner_diameter >= self.coil.outer_diameter:
             raise ValueError("coil.inner_diameter must be smaller than coil.outer_diameter")
+        from whisker.fasteners import FastenerError, hole
+        try:  # an insert deeper than the mount's blind hole, a tapped hole too shallow to engage
+            hole(self.fasteners.mount_screw, self.fasteners.mount_joint, wall=self.mount.mounting_hole_depth)
+        except FastenerError as err:
+            raise ValueError(f"fasteners.mount_joint / mount.mounting_hole_depth: {err}") from None
         if self.rod_below_membrane <= 0:
             raise ValueError(
                 "whiskers.rod_length must exceed whiskers.protrusion + membrane.thickness "
@@ -413,6 +513,22 @@ class Design(_Section):
         """Distance from centre to a membrane polygon vertex, mm."""
         m = self.membrane
         return m.inscribed_radius / math.cos(math.pi / m.sides)
+
+    @property
+    def mounting_hole_diameter(self) -> float:
+        """The mount's robot-adapter holes as modelled: the fastener table's hole for
+        fasteners.mount_screw / mount_joint (no print clearance added: inserts and thread-forming
+        screws must grip, ISO 273 clearance holes already have theirs), mm."""
+        from whisker.fasteners import hole
+        f = self.fasteners
+        return hole(f.mount_screw, f.mount_joint).diameter
+
+    @property
+    def camera_screw_hole(self) -> float:
+        """The mount's camera screw holes as modelled (fasteners.camera_screw / camera_joint), mm."""
+        from whisker.fasteners import hole
+        f = self.fasteners
+        return hole(f.camera_screw, f.camera_joint).diameter
 
     def hole(self, nominal: float) -> float:
         """Printed hole diameter for a part of `nominal` diameter: nominal + 2 x clearance, mm."""

@@ -72,19 +72,36 @@ def led_outer_radius(d: "Design") -> float:
 
 
 def lens_top_z(d: "Design") -> float:
-    """Top of the lens holder (it reaches up to the optical centre), mm."""
+    """Top of the lens (it reaches up to the optical centre): the round opening goes straight up
+    to here, then the cone widens, mm."""
     return d.camera_z
+
+
+def holder_top_z(d: "Design") -> float:
+    """Top of the lens holder's square pocket (the profile's holder height above the board), mm."""
+    from whisker.camera_boards import profile
+    return mount_levels(d)["board_face"] + min(profile(d.camera.board).lens.holder_height, d.camera.lens_height)
 
 
 def cone_radius_at(d: "Design", z: float) -> float:
     """Radius of the mount's inner cone (lens opening up to the coil cavity) at height z, mm."""
     lv = mount_levels(d)
-    z0, z1 = lv["board_face"], lv["cylinder_bottom"]
+    z0, z1 = min(lens_top_z(d), lv["cylinder_bottom"]), lv["cylinder_bottom"]
     r0, r1 = lens_radius(d), d.cavity_radius
     if z1 <= z0:
         return max(r0, r1)
     t = min(1.0, max(0.0, (z - z0) / (z1 - z0)))
     return r0 + t * (r1 - r0)
+
+
+def camera_pocket_box(d: "Design") -> tuple[float, float, float, float]:
+    """The camera board pocket (x0, y0, x1, y1), mm: the board of camera.board placed with its lens
+    on the sensor axis and its cable towards -y (whisker.camera_boards.placement), plus clearance."""
+    from whisker.camera_boards import placement, profile
+    p = placement(profile(d.camera.board), 270.0)
+    (cx, cy), (w, h) = p.board_centre, p.board_size
+    w, h = d.hole(w), d.hole(h)
+    return cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2
 
 
 def mounting_hole_angles(d: "Design") -> list[float]:
@@ -207,10 +224,10 @@ def _mounting_hole_needs(d: "Design") -> float:
     if m.mounting_hole_count == 0:
         return 0.0
     lv = mount_levels(d)
-    hole_r = d.hole(m.mounting_hole_diameter) / 2
-    bw, bh = d.hole(cam.board_width) / 2, d.hole(cam.board_height) / 2
+    hole_r = d.mounting_hole_diameter / 2
+    x0, y0, x1, y1 = camera_pocket_box(d)
     far = 1000.0
-    keep_out = (box(-bw, -bh, bw, bh)
+    keep_out = (box(x0, y0, x1, y1)
                 .union(box(-m.ribbon_width / 2, -far, m.ribbon_width / 2, 0.0))
                 .union(Point(0, 0).buffer(cone_radius_at(d, lv["bottom"] + m.mounting_hole_depth), 128))
                 .buffer(hole_r + w, 32))
@@ -231,11 +248,12 @@ def mount_outer_radius(d: "Design", auto: frozenset = frozenset()) -> float:
     magnet pockets, LED channel, membrane seat, camera board pocket and the robot mounting holes."""
     w, m = d.print.min_wall, d.mount
     seat = (d.membrane.inscribed_radius + d.print.clearance) / math.cos(math.pi / d.membrane.sides)
-    board = math.hypot(d.hole(d.camera.board_width), d.hole(d.camera.board_height)) / 2
+    x0, y0, x1, y1 = camera_pocket_box(d)
+    board = max(math.hypot(x, y) for x in (x0, x1) for y in (y0, y1))
     holes = 0.0
     if m.mounting_hole_count:
         bolt = _mounting_hole_needs(d) if "mount.mounting_bolt_radius" in auto else m.mounting_bolt_radius
-        holes = bolt + d.hole(m.mounting_hole_diameter) / 2
+        holes = bolt + d.mounting_hole_diameter / 2
     need = max(pocket_outer_radius(d), led_outer_radius(d), seat, board, holes) + w
     return ceil_step(need, MOUNT_STEP_MM)
 
@@ -245,7 +263,7 @@ def mounting_bolt_radius(d: "Design", auto: frozenset = frozenset()) -> float:
     the most material to the camera pocket; rounded down to 0.1 mm."""
     m = d.mount
     return round(max(_mounting_hole_needs(d) if m.mounting_hole_count else 0.0,
-                     floor_step(m.outer_radius - d.hole(m.mounting_hole_diameter) / 2 - d.print.min_wall, 0.1)), 3)
+                     floor_step(m.outer_radius - d.mounting_hole_diameter / 2 - d.print.min_wall, 0.1)), 3)
 
 
 def cable_exit_count(d: "Design", auto: frozenset = frozenset()) -> int:
