@@ -19,7 +19,7 @@ import trimesh
 from whisker.design import Design
 from whisker.files import atomic_write_json, publish, staging_dir
 
-from . import checks
+from . import checks, sequence
 from .assembly import export_step, sensor_assembly
 from .buildkey import FORMATS, build_key, file_sha256
 from .parts import PARTS, print_pose, print_transform
@@ -120,6 +120,14 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = FORMATS,
         t = time.perf_counter()
         measured = mesh_design_checks(d, meshes)
         timings["mesh_checks_s"] = time.perf_counter() - t
+        say("measuring the walls of the printed parts")
+        t = time.perf_counter()
+        measured += wall_checks(d, meshes)
+        timings["wall_checks_s"] = time.perf_counter() - t
+        say("checking the assembly sequence")
+        t = time.perf_counter()
+        measured += sequence.check_sequence(d, solids["mount"], "robot")
+        timings["sequence_s"] = time.perf_counter() - t
         for c in solid + measured:
             part_checks.setdefault(c.part, []).append(c)
         for name, found in part_checks.items():
@@ -174,6 +182,20 @@ def mesh_design_checks(d: Design, meshes: dict[str, trimesh.Trimesh]) -> list[ch
             + checks.mold_checks(meshes["mold_base"], meshes["mold_lid"], d)
             + checks.ring_checks(meshes["whisker_ring"], d)
             + checks.mount_checks(meshes["mount"], meshes["membrane"], d))
+
+
+def wall_checks(d: Design, meshes: dict[str, trimesh.Trimesh]) -> list[checks.Check]:
+    """No wall thinner than the process allows between two named features of any printed part,
+    measured on its mesh (whisker.cad.walls); parts in parallel on two workers (joblib)."""
+    from joblib import Parallel, delayed
+
+    from . import part_features, walls
+
+    jobs = [(name, meshes[name], feats, minw, sep) for name, (feats, minw, sep) in part_features.all_printed(d).items()
+            if name in meshes]
+    return Parallel(n_jobs=2, prefer="threads")(
+        delayed(walls.wall_check)(name, mesh, feats, minw, ("print.min_wall",) if name != "bobbin"
+                                  else ("bobbin.min_wall",), separate=sep) for name, mesh, feats, minw, sep in jobs)
 
 
 def _previous_files(out: Path) -> list[str]:

@@ -69,3 +69,16 @@ def ring_features(d: Design) -> Features:
 #: Part name (whisker.cad.parts) -> its named features.
 FEATURES = {"mount": mount_features, "mold_base": mold_base_features, "mold_lid": mold_lid_features,
             "whisker_ring": ring_features}
+
+
+def all_printed(d: Design) -> dict[str, tuple[Features, float, list[str]]]:
+    """Every printed part's (features, thinnest wall in mm, features that must not meet any other):
+    the FDM parts at print.min_wall, the resin bobbin at bobbin.min_wall."""
+    from . import adapter, bobbin, cover, winding_jig
+
+    out = {name: (fn(d), d.print.min_wall, []) for name, fn in FEATURES.items()}
+    out["adapter"] = ({**adapter.adapter_tools(d), **adapter.edges(d)}, d.print.min_wall, adapter.separate(d))
+    out["cover"] = ({**cover.cover_tools(d), **cover.edges(d)}, d.print.min_wall, [])
+    out["winding_jig"] = ({**winding_jig.jig_tools(d), **winding_jig.edges(d)}, d.print.min_wall, [])
+    out["bobbin"] = ({**bobbin.bobbin_tools(d), **bobbin.edges(d)}, d.bobbin.min_wall, [])
+    return out

@@ -21,13 +21,18 @@ def show(design, as_json):
     """Print the fully resolved design, where each value came from, and its derived quantities.
 
     Every value is marked "file" (hw/sensor.toml, --design or --set) or "rule" (set to "auto" in the
-    file and sized from the ring by whisker.sizing, with the rule's reason).
+    file and sized from the ring by whisker.sizing, with the rule's reason). The camera board
+    profiles camera.board can choose are listed at the end.
     """
+    from whisker.camera_boards import describe
+
     derived = {**design.derived(), "digest": design.digest()}
     data = design.to_dict()
     sources = {f"{sec}.{key}": design.source(f"{sec}.{key}") for sec, vals in data.items() for key in vals}
+    boards = describe()
     if as_json:
-        click.echo(json.dumps({"design": data, "sources": sources, "derived": derived}, indent=2))
+        click.echo(json.dumps({"design": data, "sources": sources, "derived": derived, "camera_boards": boards},
+                              indent=2))
         return
     import tomli_w
 
@@ -41,3 +46,6 @@ def show(design, as_json):
     click.echo("# derived")
     for k, v in derived.items():
         click.echo(f"# {k} = {v}")
+    click.echo("# camera boards (camera.board; hw/camera_boards.toml)")
+    for line in boards:
+        click.echo(f"#   {line}")
