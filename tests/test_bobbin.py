@@ -104,3 +104,16 @@ def test_jig_pocket_keys_the_bobbin_on_the_axis_and_one_flag_per_turn(d):
                                                L["settings"].flag_width / 2), abs=0.01)
     cw = walls.wall_check("winding_jig", m, {**wj.jig_tools(d), **wj.edges(d)}, d.print.min_wall)
     assert cw.ok, cw.line()
+
+
+def test_bom_orders_the_wire_the_bobbin_takes_and_every_printed_part(d):
+    from whisker import bom
+
+    rows = {r.item: r for r in bom.make_bom(d)}
+    w = bobbin.winding(d)
+    n, b = d.whiskers.count, d.bom
+    want = n * (w["wire_length_mm"] + 2 * b.coil_lead_length) * (1 + b.wire_waste) / 1000
+    assert rows["magnet_wire"].value == pytest.approx(want, abs=0.05)
+    assert rows["coil"].specification.startswith(f"{w['turns']} turns")
+    assert all(f"print_{p}" in rows for p in bom.PRINTED_PARTS) and rows["bobbin"].value == n
+    assert rows["insert_m3"].value == d.mount.mounting_hole_count and "ruthex" in rows["insert_m3"].specification

@@ -47,7 +47,9 @@ COLUMNS = ("item", "category", "description", "quantity", "unit", "specification
            "notes")
 
 #: Printed parts and the reference part the Ecoflex volume comes from (names of whisker.cad.parts).
-PRINTED_PARTS = ("mount", "mold_base", "mold_lid", "whisker_ring")
+PRINTED_PARTS = ("mount", "mold_base", "mold_lid", "whisker_ring", "adapter", "cover", "winding_jig")
+#: Printed on a resin printer (not PLA): one per whisker.
+RESIN_PARTS = ("bobbin",)
 MEMBRANE_PART = "membrane"
 
 #: K&J Magnetics D31: 3/16 in dia x 1/16 in thick N42 disc (the paper's magnet size).
@@ -85,23 +87,16 @@ class CoilWire:
 
 
 def coil_wire(design: Design) -> CoilWire:
-    """Wire length of one coil from the coil calculator (``whisker.coil.winding``, issue 4).
+    """Wire of one coil: the turns that fit the bobbin's winding window at [winding] fill_factor
+    (whisker.cad.bobbin.winding, through the coil calculator whisker.coil.winding), mm."""
+    from whisker.cad.bobbin import winding
 
-    Fallback while that module is absent: the winding's geometric mean-turn length,
-    turns x pi x (outer_diameter + inner_diameter) / 2 (mm), and the source says so.
-    """
-    try:
-        from whisker.coil import winding
-    except ImportError:
-        c = design.coil
-        length = c.turns * math.pi * (c.outer_diameter + c.inner_diameter) / 2.0
-        return CoilWire(length, "mean-turn estimate (whisker.coil not available)", None, c.turns)
     try:
         w = winding(design)
     except ValueError as err:  # whisker.coil.CoilError: an impossible winding request
         raise BomError(f"coil winding: {err}") from err
-    return CoilWire(float(w.wire_length_mm), "whisker.coil.winding", getattr(w, "fits", None),
-                    getattr(w, "turns", None))
+    return CoilWire(float(w["wire_length_mm"]), "the turns that fit the bobbin, whisker.cad.bobbin.winding",
+                    bool(w["design_turns_fit"]), int(w["turns"]))
 
 
 def cad_measures(design: Design) -> tuple[dict[str, float], dict[str, float]]:
@@ -110,7 +105,7 @@ def cad_measures(design: Design) -> tuple[dict[str, float], dict[str, float]]:
     from whisker.cad.parts import BY_NAME
 
     vols, areas = {}, {}
-    for name in (*PRINTED_PARTS, MEMBRANE_PART):
+    for name in (*PRINTED_PARTS, *RESIN_PARTS, MEMBRANE_PART):
         try:
             shape = BY_NAME[name].build(design)
             vols[name], areas[name] = float(shape.Volume()), float(shape.Area())
@@ -280,12 +275,20 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         f"{math.ceil(n * w.rod_length / 500)} x 500 mm stock rod(s); tips coated with sand (paper)")
 
     c = d.coil
-    fit = "" if wire.fits in (None, True) else "; the calculator says this winding does NOT fit the former"
-    add("coil", "make", "disc electromagnet at each whisker base", _num(n), "pcs",
-        f"{c.turns} turns of {c.wire_diameter:g} mm copper on a {c.inner_diameter:g} mm former, "
-        f"{c.outer_diameter:g} mm dia x {c.length:g} mm, about {c.resistance:g} ohm",
-        "hand-wound (docs/coil.md)",
-        f"red marker dot {c.marker_diameter:g} mm on the lower face{fit}")
+    turns = wire.turns if wire.turns is not None else c.turns
+    fit = "" if wire.fits in (None, True) else f"; the design's coil.turns = {c.turns} do not fit the bobbin"
+    add("coil", "make", "electromagnet at each whisker base, wound on its bobbin", _num(n), "pcs",
+        f"{turns} turns of {c.wire_diameter:g} mm copper on the bobbin's {c.inner_diameter:g} mm core, "
+        f"{c.length:g} mm window, {c.outer_diameter:g} mm flange",
+        "hand-wound with the winding jig (docs/coil.md)",
+        f"the turns that fit at fill {d.winding.fill_factor:g}; red marker dot {c.marker_diameter:g} mm on the "
+        f"bobbin tab's lower face{fit}")
+    if RESIN_PARTS[0] in volumes_mm3:
+        resin_ml = n * volumes_mm3[RESIN_PARTS[0]] / 1000.0 * (1 + b.pla_waste)
+        add("bobbin", "print", "coil former (bobbin), resin print", _num(n), "pcs",
+            f"MSLA resin, 0.05 mm layers, {volumes_mm3[RESIN_PARTS[0]]:.1f} mm^3 each", "make stl (exports/bobbin.stl)",
+            f"rod tab, core, flange; about {resin_ml:.2f} ml of resin for {n} (+{b.pla_waste:.0%} waste); "
+            "an FDM printer at 0.4 mm cannot print its 1 mm core")
 
     per_coil = wire.wire_length_mm + 2 * b.coil_lead_length
     total_m = n * per_coil * (1 + b.wire_waste) / 1000.0
@@ -422,14 +425,17 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
     add("power_wire", "buy", "power wire supply -> modules", _num(2 * modules), "pcs",
         "22 AWG stranded, red/black", "any", f"+{vs:g} V and GND to each module's screw terminals")
 
-    mt = d.mount
-    add("m3_screw", "buy", "M3 screws for the robot adapter", _num(mt.mounting_hole_count), "pcs",
-        f"M3 socket head, engaging at most {mt.mounting_hole_depth:g} mm", "any",
-        f"{mt.mounting_hole_count} blind {d.mounting_hole_diameter:g} mm holes on a "
-        f"{mt.mounting_bolt_radius:g} mm radius; length = adapter thickness + thread engagement")
-    add("m2_screw", "buy", "M2 screws for the camera board", "4", "pcs",
-        f"M2 x 6 mm self-tapping for plastics (holes {cam.hole_diameter:g} mm)", "any",
-        f"camera holes {cam.hole_spacing_x:g} x {cam.hole_spacing_y:g} mm")
+    from whisker import fasteners as fz
+    from whisker.cad import adapter, cover
+
+    f = d.fasteners
+    joints = [fz.Joint("camera board", f.camera_screw, f.camera_joint, 4, d.camera.board_thickness),
+              *adapter.joints(d), *cover.joints(d)]
+    for line in fz.bom_lines(joints):
+        add(line["item"], "buy", "screw" if line["item"].startswith("screw") else "heat-set insert",
+            _num(line["quantity"]), line["unit"], line["specification"],
+            "ruthex (inserts); any fastener supplier (ISO 4762 screws)", line["notes"]
+            + ("; the cover's only without the adapter" if "camera cover" in line["notes"] else ""))
 
     add("glue", "consumable", "glue for rods, coils, magnets", "1", "set",
         "silicone adhesive for rod-membrane joints; cyanoacrylate for coils on rods and magnets in "
