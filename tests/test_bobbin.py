@@ -117,3 +117,17 @@ def test_bom_orders_the_wire_the_bobbin_takes_and_every_printed_part(d):
     assert rows["coil"].specification.startswith(f"{w['turns']} turns")
     assert all(f"print_{p}" in rows for p in bom.PRINTED_PARTS) and rows["bobbin"].value == n
     assert rows["insert_m3"].value == d.mount.mounting_hole_count and "ruthex" in rows["insert_m3"].specification
+
+
+def test_wound_coil_is_bobbin_and_full_annulus_with_the_rod_outside(d):
+    from whisker.cad import reference
+
+    L = bobbin.layout(d)
+    coil = reference.wound_coil(d)
+    mesh = to_mesh(coil, 0.01, 0.2)
+    for x in np.linspace(L["core"][0] + 0.2, L["core"][1] - 0.2, 5):  # a full annulus along the winding
+        polys = _x_section(mesh, x)
+        assert len(polys) == 1
+        assert 2 * math.sqrt(polys[0].exterior.convex_hull.area / math.pi) == pytest.approx(
+            d.coil.outer_diameter - 2 * L["settings"].rim_margin, abs=0.02)
+    assert reference.rod(d).intersect(bobbin.winding_envelope(d)).Volume() < 1e-6

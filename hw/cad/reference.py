@@ -53,3 +53,17 @@ def magnet(d: Design, angle_deg: float = 0.0) -> cq.Shape:
     """NdFeB disc in the mount wall, its face `actuation.gap` outside the coil's outer face."""
     r = d.cavity_radius
     return radial_cylinder(r, r + d.magnet.height, d.magnet.diameter, d.coil_axis_z, angle_deg)
+
+
+def wound_coil(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
+    """The coil as it can be made: the bobbin (whisker.cad.bobbin) and its winding, a full annulus
+    between the rod tab and the flange, with the rod in the tab outside the winding.
+
+    Not yet the coil the checks use (:func:`coil`): its outer flange lies ``bobbin.tab / 2 +
+    coil.length / 2 + bobbin.flange`` farther out than the coil centred on the rod, so the magnets,
+    the cavity and the seat's opening must move out with it (whisker.sizing) before it replaces it.
+    """
+    from . import bobbin
+
+    body = bobbin.bobbin(d).fuse(bobbin.winding_envelope(d)).clean()
+    return _tilt(body, d, angle_deg, tilt_deg)
