@@ -348,6 +348,14 @@ class Adapter(_Section):
     under_head: float = Field(4.0, gt=0, le=50, description="mm of plate under each screw head at least")
     relief_depth: float = Field(2.5, ge=0, le=20, description="mm, top-face pocket for the board's back and cable")
 
+    @field_validator("preset")
+    @classmethod
+    def _known_flange(cls, v: str) -> str:
+        from whisker.cad.extras import flanges  # the table's loader (hw/flanges.csv), loaded on use
+        if v not in flanges():
+            raise ValueError(f"unknown flange {v!r}; known: {', '.join(flanges())}")
+        return v
+
 
 class Cover(_Section):
     thickness: float = Field(2.0, gt=0, le=20, description="mm under the relief")
