@@ -15,9 +15,14 @@ _PACKAGE = Path(__file__).resolve().parents[2] / "software" / "whisker"
 
 
 def source_digest() -> str:
-    """Hash of the CAD sources and the design model: a code change invalidates old exports."""
+    """Hash of the CAD sources, the design model and the data tables the parts read: a change to
+    any of them invalidates old exports."""
     h = hashlib.sha256()
-    sources = sorted(Path(__file__).resolve().parent.glob("*.py")) + [_PACKAGE / "design.py", _PACKAGE / "files.py"]
+    hw = Path(__file__).resolve().parents[1]
+    sources = (sorted(Path(__file__).resolve().parent.glob("*.py"))
+               + [_PACKAGE / n for n in ("design.py", "files.py", "sizing.py", "fasteners.py", "camera_boards.py")]
+               # the data the parts are built from (standards and datasheets, board drawings, the sequence)
+               + [hw / n for n in ("fasteners.csv", "camera_boards.toml", "flanges.csv", "assembly_sequence.toml")])
     for p in sources:
         h.update(p.name.encode())
         h.update(p.read_bytes())
