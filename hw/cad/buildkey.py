@@ -17,7 +17,7 @@ _PACKAGE = Path(__file__).resolve().parents[2] / "software" / "whisker"
 def source_digest() -> str:
     """Hash of the CAD sources and the design model: a code change invalidates old exports."""
     h = hashlib.sha256()
-    sources = sorted(Path(__file__).resolve().parent.glob("*.py")) + [_PACKAGE / "design.py", _PACKAGE / "files.py"]
+    sources = sorted(Path(__file__).resolve().parent.glob("*.py")) + [_PACKAGE / "design.py", _PACKAGE / "sizing.py", _PACKAGE / "files.py"]
     for p in sources:
         h.update(p.name.encode())
         h.update(p.read_bytes())

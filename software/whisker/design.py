@@ -323,6 +323,13 @@ class Design(_Section):
         design._rules = rules
         return design
 
+    def __eq__(self, other: object) -> bool:
+        # Equal values are equal designs, whether a value came from the file or from a rule.
+        return isinstance(other, Design) and self.to_dict() == other.to_dict()
+
+    def __hash__(self) -> int:
+        return hash(self.digest())
+
     def source(self, name: str) -> str:
         """Where a value came from: "rule: <reason>" or "file" ("section.key")."""
         return f"rule: {self._rules[name]}" if name in self._rules else "file"
