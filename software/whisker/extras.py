@@ -40,20 +40,22 @@ def missing_extra_message(err: ModuleNotFoundError, command: str = "this command
 
 
 def extras_status() -> dict[str, list[str]]:
-    """{extra: [requirements not satisfied]} for every extra declared by the installed package
-    (empty list: the extra is installed). Versions are checked against the declared bounds."""
+    """{extra: [requirements not satisfied]} for every extra of the installed package that asks for
+    something on this machine (empty list: installed; [pi] is left out off ARM boards). Versions are
+    checked against the declared bounds."""
     from packaging.requirements import Requirement
 
     reqs = [Requirement(r) for r in (metadata.requires(DIST) or [])]
     names = sorted({e for e in metadata.metadata(DIST).get_all("Provides-Extra") or []} - {"test"})
     out: dict[str, list[str]] = {}
     for extra in names:
-        missing = []
+        missing, applies = [], False
         for r in reqs:
             if r.name == DIST or r.marker is None or not r.marker.evaluate({"extra": extra}):
                 continue
             if r.marker.evaluate({"extra": ""}):  # a core requirement, not this extra's
                 continue
+            applies = True
             try:
                 version = metadata.version(r.name)
             except metadata.PackageNotFoundError:
@@ -61,7 +63,8 @@ def extras_status() -> dict[str, list[str]]:
                 continue
             if version not in r.specifier:
                 missing.append(f"{r.name} {version} (needs {r.specifier})")
-        out[extra] = missing
+        if applies or extra == "all":
+            out[extra] = missing
     if "all" in out:  # all = every other extra; what it lacks is what they lack
         out["all"] = sorted({m for e, ms in out.items() if e != "all" for m in ms})
     return out
