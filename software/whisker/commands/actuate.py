@@ -156,10 +156,8 @@ def run_sequence_file(design, path, backend, policy, quiet):
 
     if not path:
         fail("actuate sequence: give the sequence FILE (TOML with [[step]] entries)")
-    from whisker.resources import example, sequences_dir
-
     try:
-        steps = load_sequence(design, example(path, sequences_dir()))
+        steps = load_sequence(design, path)
     except ValueError as err:  # includes RatingError
         fail(f"actuate: {err}")
     try:
