@@ -200,8 +200,12 @@ def test_all_install_builds_the_default_design_like_make_stl(full, default_build
     wheel_m, repo_m = load_manifest(home / "exports"), load_manifest(default_build)
     assert wheel_m["build_key"] == repo_m["build_key"], "another design or other CAD sources in the wheel"
     assert wheel_m["all_checks_passed"] and sorted(wheel_m["parts"]) == sorted(repo_m["parts"])
+    volumes = 0
     for name, part in repo_m["parts"].items():
         got = wheel_m["parts"][name]
-        assert got["volume_mm3"] == pytest.approx(part["volume_mm3"], rel=1e-9, abs=1e-6), name
-        assert got["bbox_mm"] == part["bbox_mm"], name
-        assert got["checks"] == part["checks"], name
+        assert set(got) == set(part), name
+        if "volume_mm3" in part:  # the solids (not the reference parts without a mesh)
+            assert got["volume_mm3"] == pytest.approx(part["volume_mm3"], rel=1e-9, abs=1e-6), name
+            volumes += 1
+        assert got.get("bbox_mm") == part.get("bbox_mm") and got["checks"] == part["checks"], name
+    assert volumes >= 4, "too few measured parts to call the geometry identical"
