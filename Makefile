@@ -26,7 +26,7 @@ CONSTRAINTS ?= constraints.txt
 $(BIN)/.installed: pyproject.toml $(CONSTRAINTS)
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	@# opencv-python-headless (used before 0.2) and opencv-contrib-python-headless share cv2/: remove both, reinstall one
+	@# opencv-python-headless (the earlier dependency) and opencv-contrib-python-headless share cv2/: remove both, reinstall one
 	if $(BIN)/python -m pip show -q opencv-python-headless 2>/dev/null; then \
 		$(BIN)/python -m pip uninstall -q -y opencv-python-headless opencv-contrib-python-headless; fi
 	$(BIN)/python -m pip install -q -c $(CONSTRAINTS) -e ".[all,test]"
