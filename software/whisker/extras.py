@@ -17,7 +17,7 @@ MODULES = {
     "sim": ("mujoco",),
     "hw": ("skidl", "kinparse"),
     "magnetics": ("magpylib",),
-    "pi": ("lgpio",),
+    "pi": ("lgpio", "smbus2"),
 }
 _EXTRA_OF = {m: extra for extra, mods in MODULES.items() for m in mods}
 
