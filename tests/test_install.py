@@ -64,6 +64,25 @@ def wheel(tmp_path_factory) -> Path:
     return whl
 
 
+def test_wheel_ships_every_data_file(wheel):
+    """Everything that is not Python under hw/ and docs/sequences/ (whatever is added later), and the
+    sim scenes, at the paths whisker.resources looks in; no CAD source twice."""
+    import zipfile
+
+    names = set(zipfile.ZipFile(wheel).namelist())
+
+    def data(folder):
+        return {p.relative_to(ROOT / folder).as_posix() for p in (ROOT / folder).rglob("*")
+                if p.is_file() and p.suffix not in (".py", ".pyc")}
+
+    for folder, package in (("hw", "whisker/hw"), ("docs/sequences", "whisker/sequences"),
+                            ("software/whisker/sim/scenes", "whisker/sim/scenes")):
+        expected = {f"{package}/{name}" for name in data(folder)}
+        assert expected and expected <= names, sorted(expected - names)
+    assert not [n for n in names if n.startswith("whisker/hw/") and n.endswith(".py") and n != "whisker/hw/__init__.py"]
+    assert {"whisker/cad/build.py", "whisker/pcb/netlist.py", "whisker/commands/doctor.py"} <= names
+
+
 def make_venv(path: Path) -> Path:
     venv.EnvBuilder(with_pip=True, clear=True).create(path)
     return path / "bin" / "python"
