@@ -93,7 +93,7 @@ def check_gpio(design) -> Check:
     if design is None:
         return Check("gpio", False, "no valid design: fix the design first")
     from gpiozero import Device
-    from gpiozero.exc import BadPinFactory, GPIOZeroError
+    from gpiozero.exc import BadPinFactory
 
     from whisker.pins import PinMapError, used_gpio
 
@@ -124,7 +124,7 @@ def check_gpio(design) -> Check:
             pin = factory.pin(number)
             pin.function  # reads the line's state: fails when another process holds it
             pin.close()
-        except (GPIOZeroError, OSError, ValueError) as err:
+        except Exception as err:  # noqa: BLE001 - lgpio/RPi.GPIO raise their own types (lgpio.error ...)
             failed.append(f"GPIO{number} ({role}): {err}")
     if failed:
         return Check("gpio", False, f"{name} cannot open " + "; ".join(failed)
