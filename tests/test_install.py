@@ -32,7 +32,7 @@ pytestmark = pytest.mark.install
 
 CONSTRAINTS = ROOT / "constraints.txt"
 WHEELHOUSE = ROOT / ".ci-wheels"  # gitignored (.ci-*/): the core's wheel files, kept between runs
-HEAVY = ("cadquery", "OCP", "mujoco", "skidl", "kinparse", "magpylib", "trimesh", "manifold3d", "shapely", "rtree")
+HEAVY = ("cadquery", "OCP", "mujoco", "skidl", "kinparse", "magpylib", "trimesh", "manifold3d", "rtree")
 
 
 def run(cmd, **kw) -> subprocess.CompletedProcess:

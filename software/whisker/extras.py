@@ -13,7 +13,7 @@ DIST = "whisker-array"
 
 #: Top-level modules whisker imports from each extra (the extra that brings them when missing).
 MODULES = {
-    "cad": ("cadquery", "OCP", "trimesh", "manifold3d", "shapely", "rtree", "networkx"),
+    "cad": ("cadquery", "OCP", "trimesh", "manifold3d", "rtree", "networkx"),
     "sim": ("mujoco",),
     "hw": ("skidl", "kinparse"),
     "magnetics": ("magpylib",),
