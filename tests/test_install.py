@@ -100,8 +100,12 @@ def core(wheel, tmp_path_factory):
     """(whisker executable, run folder outside the checkout, env) of a core-only install."""
     base = tmp_path_factory.mktemp("core")
     pip = [sys.executable, "-m", "pip", "download", "-q", "-d", WHEELHOUSE, "-c", CONSTRAINTS, wheel]
+    for stale in WHEELHOUSE.glob("whisker_array-*.whl"):  # pip would reuse an older build of the same name
+        stale.unlink()
     if run([*pip[:5], "--no-index", "--find-links", WHEELHOUSE, *pip[5:]]).returncode != 0:
-        ok(run(pip))  # first run on this machine: fetch the missing wheel files once
+        ok(run(pip))  # first run on this machine, or new requirements: fetch the missing files once
+    for copy in WHEELHOUSE.glob("whisker_array-*.whl"):
+        copy.unlink()
     python = make_venv(base / "venv")
     ok(run([python, "-m", "pip", "install", "-q", "--no-index", "--find-links", WHEELHOUSE,
             "-c", CONSTRAINTS, wheel]))
