@@ -6,12 +6,14 @@ import hashlib
 import json
 from pathlib import Path
 
+from whisker import design as _design_module
 from whisker.design import Design
 
 # Every build writes both; the key names them so a future STL-only build cannot pass for a full one.
 FORMATS = ("stl", "step")
 
-_PACKAGE = Path(__file__).resolve().parents[2] / "software" / "whisker"
+# software/whisker in a clone, site-packages/whisker from a wheel.
+_PACKAGE = Path(_design_module.__file__).resolve().parent
 
 
 def source_digest() -> str:

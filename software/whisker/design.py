@@ -32,8 +32,10 @@ class DesignError(ValueError):
 
 
 def _default_design_path() -> Path:
-    # hw/cad is importable as whisker.cad; the design file sits beside it in hw/.
-    return Path(__file__).resolve().parents[2] / "hw" / "sensor.toml"
+    # hw/sensor.toml in a clone, the copy shipped in the wheel otherwise (whisker.resources).
+    from whisker.resources import default_design_path
+
+    return default_design_path()
 
 
 DEFAULT_DESIGN = _default_design_path()
