@@ -41,20 +41,21 @@ def test_end_to_end_tip_error_small_with_roi_tracker():
 
 
 def test_end_to_end_paper_pipeline_loses_small_markers_roi_does_not():
-    """The paper's pipeline (10x10 erosion) loses markers on small dots (docs/tracking.md):
-    it either refuses its rest calibration or tracks fewer markers than roi, within a millimetre."""
+    """The paper's pipeline (10x10 erosion) erodes small dots (docs/tracking.md): on the paper's
+    1.2 mm dots (~12 px) it loses the markers and refuses its rest calibration, while roi keeps every
+    one; on the calibrated 1.4 mm dots (~14 px) it keeps them, but its tips are several times worse."""
     from whisker.tracking import CalibrationError
 
     s = _scene(method="paper", geometry="paper")
+    small = default_design("drive.full_scale_voltage=3.0", "coil.marker_diameter=1.2")
+    r = simulate(s, small)
+    assert camera_run(_scene(geometry="paper"), small, r).valid.mean() == 1.0
+    with pytest.raises(CalibrationError, match="rest frame"):
+        camera_run(s, small, r)
     r = simulate(s, D)
     roi = camera_run(_scene(geometry="paper"), D, r)
-    assert roi.valid.mean() == 1.0
-    try:
-        cr = camera_run(s, D, r)
-    except CalibrationError as err:
-        assert "rest frame" in str(err) and "\n" not in str(err)
-    else:
-        assert cr.valid.mean() < 1.0 and cr.tip_rms_mm < 1.0
+    cr = camera_run(s, D, r)
+    assert roi.valid.mean() == 1.0 and cr.tip_rms_mm > 2 * roi.tip_rms_mm
 
 
 def test_camera_pruned_when_off_or_nothing_asked():

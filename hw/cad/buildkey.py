@@ -6,19 +6,22 @@ import hashlib
 import json
 from pathlib import Path
 
+from whisker import design as _design_module
 from whisker.design import Design
+from whisker.resources import hw_dir
 
 # Every build writes both; the key names them so a future STL-only build cannot pass for a full one.
 FORMATS = ("stl", "step")
 
-_PACKAGE = Path(__file__).resolve().parents[2] / "software" / "whisker"
+# software/whisker in a clone, site-packages/whisker from a wheel.
+_PACKAGE = Path(_design_module.__file__).resolve().parent
 
 
 def source_digest() -> str:
     """Hash of the CAD sources, the design model and the data tables the parts read: a change to
     any of them invalidates old exports."""
     h = hashlib.sha256()
-    hw = Path(__file__).resolve().parents[1]
+    hw = hw_dir()
     sources = (sorted(Path(__file__).resolve().parent.glob("*.py"))
                + [_PACKAGE / n for n in ("design.py", "files.py", "sizing.py", "fasteners.py", "camera_boards.py")]
                # the data the parts are built from (standards and datasheets, board drawings, the sequence)

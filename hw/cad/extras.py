@@ -13,8 +13,9 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from whisker.design import Design, DesignError, one_line_errors
+from whisker.resources import hw_dir
 
-HW = Path(__file__).resolve().parents[1]  # hw/ (this file is hw/cad/extras.py)
+HW = hw_dir()  # hw/ in a clone, whisker/hw in a wheel
 FLANGES = HW / "flanges.csv"
 
 

@@ -24,11 +24,12 @@ import numpy as np
 from whisker import sizing
 from whisker.design import Design, DesignError
 from whisker.files import read_toml
+from whisker.resources import hw_dir
 
 from . import reference
 from .checks import VOLUME_EPS, Check, _check, to_mesh
 
-SEQUENCE = Path(__file__).resolve().parents[1] / "assembly_sequence.toml"
+SEQUENCE = hw_dir() / "assembly_sequence.toml"
 VARIANTS = ("robot", "bench")
 
 

@@ -754,10 +754,12 @@ def sequence_from_dict(design, data: dict) -> list[Step]:
 
 
 def load_sequence(design, path) -> list[Step]:
-    """Read a sequence TOML file (see :func:`sequence_from_dict`)."""
+    """Read a sequence TOML file (see :func:`sequence_from_dict`), or a shipped example by name
+    (``voltage_sweep``: docs/sequences/ in a clone, whisker.sequences in a wheel)."""
     from whisker.files import read_toml
+    from whisker.resources import example, sequences_dir
 
-    return sequence_from_dict(design, read_toml(path, "sequence"))
+    return sequence_from_dict(design, read_toml(example(path, sequences_dir()), "sequence"))
 
 
 class SequenceRunner:

@@ -20,7 +20,9 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-DATA = Path(__file__).resolve().parents[2] / "hw" / "camera_boards.toml"
+from whisker.resources import hw_dir
+
+DATA = hw_dir() / "camera_boards.toml"
 
 
 class CameraBoardError(ValueError):

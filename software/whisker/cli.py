@@ -22,6 +22,19 @@ class LazyGroup(click.Group):
             return None
         return importlib.import_module(f"whisker.commands.{name}").cli
 
+    def invoke(self, ctx):
+        # A library from an extra that is not installed: one line naming the pip install, exit 1.
+        try:
+            return super().invoke(ctx)
+        except ModuleNotFoundError as err:
+            from whisker.extras import missing_extra_message
+
+            message = missing_extra_message(err, f"whisker {ctx.invoked_subcommand or ''}".strip())
+            if message is None:
+                raise
+            click.echo(message, err=True)
+            ctx.exit(1)
+
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="whisker")

@@ -32,8 +32,10 @@ class DesignError(ValueError):
 
 
 def _default_design_path() -> Path:
-    # hw/cad is importable as whisker.cad; the design file sits beside it in hw/.
-    return Path(__file__).resolve().parents[2] / "hw" / "sensor.toml"
+    # hw/sensor.toml in a clone, the copy shipped in the wheel otherwise (whisker.resources).
+    from whisker.resources import default_design_path
+
+    return default_design_path()
 
 
 DEFAULT_DESIGN = _default_design_path()
@@ -425,6 +427,13 @@ class Design(_Section):
         design = handler(resolved)
         design._rules = rules
         return design
+
+    def __eq__(self, other: object) -> bool:
+        # Equal values are equal designs, whether a value came from the file or from a rule.
+        return isinstance(other, Design) and self.to_dict() == other.to_dict()
+
+    def __hash__(self) -> int:
+        return hash(self.digest())
 
     def source(self, name: str) -> str:
         """Where a value came from: "rule: <reason>" or "file" ("section.key")."""

@@ -24,7 +24,9 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-TABLE = Path(__file__).resolve().parents[2] / "hw" / "fasteners.csv"
+from whisker.resources import hw_dir
+
+TABLE = hw_dir() / "fasteners.csv"
 KINDS = ("insert", "tap", "through")
 Kind = Literal["insert", "tap", "through"]
 ClearanceSeries = Literal["fine", "medium", "coarse"]

@@ -15,8 +15,10 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from whisker.resources import hw_dir
+
 # Relative profile paths are resolved against the folder that holds the default design file.
-HW_DIR = Path(__file__).resolve().parents[2] / "hw"
+HW_DIR = hw_dir()
 
 
 class ProfileError(ValueError):

@@ -82,7 +82,8 @@ def cli(design, action, values, backend, which, start, level, volts, policy, dur
       extend    tips away from the centre on the --config whiskers
       levels    one signed PWM duty per whisker: VALUES = 0.5,0,0,-0.3,...  (+ = retract)
       volts     one signed mean coil voltage per whisker: VALUES = 3,0,-1.5,...
-      sequence  the timed steps of a TOML FILE (docs/actuation.md; checked whole before it runs);
+      sequence  the timed steps of a TOML FILE or a shipped example by name, e.g. voltage_sweep
+                (docs/actuation.md; checked whole before it runs);
                 --duration is ignored
 
     Levels above the coil rating (drive.max_coil_voltage) are refused. The thermal guard follows each

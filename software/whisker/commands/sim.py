@@ -33,13 +33,16 @@ def cli(scene_file, explain, out, overrides, scene_sets, attempts, trials, as_js
     contact via MuJoCo, camera, tracking) and says why; a scene where nothing moves is solved as a
     static equilibrium. The scene's [experiment] repeats it the way the paper does (angle vs voltage,
     grasp table, displacement vs time, classification dataset). Outputs go to a run folder:
-    plan.json, tracks.csv, plots, tables, summary.json. Example scenes: software/whisker/sim/scenes/.
+    plan.json, tracks.csv, plots, tables, summary.json. The example scenes ship with the package:
+    give their name (grasp, angle_vs_voltage, ...) instead of a file (software/whisker/sim/scenes/).
     """
     from whisker.sim import SceneError, SimulationError, load_scene, plan, scene_design
     from whisker.sim.contract import MissingModule
 
     try:
-        scene = load_scene(scene_file)
+        from whisker.resources import example, scenes_dir
+
+        scene = load_scene(example(scene_file, scenes_dir()))
         if scene_sets:
             from whisker.sim.scene import scene_with_overrides
             scene = scene_with_overrides(scene, scene_sets)
