@@ -8,7 +8,10 @@ regenerates it and fails when it differs.
 Quantity rules (all inputs from the Design unless stated):
 - rods, coils, magnets: one per whisker (N = whiskers.count).
 - magnet wire: N x (winding wire length + 2 x bom.coil_lead_length) x (1 + bom.wire_waste); the
-  winding length comes from ``whisker.coil.winding(design).wire_length_mm`` (issue-4 calculator).
+  winding is the turns that fit the bobbin's window (``whisker.cad.bobbin.winding``, through the
+  coil calculator ``whisker.coil.winding``).
+- screws and heat-set inserts: per fastened joint ([fasteners], the adapter's flange), ISO 4762
+  stock lengths for each stack (``whisker.fasteners.bom_lines``).
 - L298N modules: ceil(N / 2) (two H-bridge channels each); PCA9685 boards when wiring.expander is
   "pca9685": ceil(2 N / 16). Pin counts and jumper wires come from ``whisker.pins.pin_map``.
 - series resistors: N when driver.series_resistance resolves to > 0 (``whisker.driver``), power
