@@ -242,7 +242,7 @@ def test_parts_too_wide_or_too_tall_for_the_printer_are_rejected(default_build, 
     narrow = load_profile(small_profile(tmp_path, "0x0,30x0,30x30,0x30", 210))
     low = load_profile(small_profile(tmp_path, "0x0,250x0,250x210,0x210", 40))
     wide = pc.check_part("mold_lid", default_build / "mold_lid.stl", narrow, tmp_path / "a.gcode", slicer, admesh, True)
-    assert not wide.ok and "too wide for the printer: 42.6 x 42.6 mm > bed 30 x 30 mm" in wide.reasons[0]
+    assert not wide.ok and "too wide for the printer: 43.8 x 43.8 mm > bed 30 x 30 mm" in wide.reasons[0]
     tall = pc.check_part("whisker_ring", default_build / "whisker_ring.stl", low, tmp_path / "b.gcode", slicer,
                          admesh, True)
     assert not tall.ok and "too tall for the printer: 62.0 mm > max_print_height 40 mm" in tall.reasons[0]
