@@ -89,21 +89,16 @@ class TrackResult:
 
 
 def load_calibration(path) -> tuple[np.ndarray, np.ndarray]:
-    """(mtx, dist) from an .npz with arrays `mtx` (3x3) and `dist` (OpenCV distortion coefficients)."""
-    path = Path(path)
-    try:
-        with np.load(path) as z:
-            mtx = np.asarray(z["mtx"], dtype=float)
-            dist = np.asarray(z["dist"], dtype=float).ravel()
-    except FileNotFoundError:
-        raise ValueError(f"calibration file {path} does not exist") from None
-    except KeyError as err:
-        raise ValueError(f"calibration file {path} has no array {err}; it needs 'mtx' and 'dist'") from None
-    except Exception as err:  # zipfile/pickle errors: not an npz
-        raise ValueError(f"calibration file {path} is not a readable .npz ({type(err).__name__})") from None
-    if mtx.shape != (3, 3) or not np.all(np.isfinite(mtx)) or dist.size < 4 or not np.all(np.isfinite(dist)):
-        raise ValueError(f"calibration file {path}: mtx must be finite 3x3 and dist >= 4 finite coefficients")
-    return mtx, dist
+    """(mtx, dist) from a standard-model lens .npz (`whisker.lens.load_lens` reads every model).
+
+    A fisheye file is refused here (its 4 coefficients mean something else to cv2.undistortPoints).
+    """
+    from whisker.lens import load_lens
+
+    lens = load_lens(path)
+    if lens.fisheye:
+        raise ValueError(f"calibration file {path} is a fisheye-model lens; read it with whisker.lens.load_lens")
+    return lens.mtx, lens.dist
 
 
 def load_mask(mask, shape=None) -> np.ndarray:
@@ -276,8 +271,9 @@ class Tracker:
     """Track the N markers of a design in camera frames.
 
     design: the Design (whisker count, ring, camera, tracking section). method: one of METHODS.
-    calibration: a path to an .npz with `mtx`, `dist` (or a (mtx, dist) tuple) for lens
-    undistortion. undistort: "points" (track on the raw frame, undistort the centroids with
+    calibration: a lens for undistortion: a path to a lens .npz (`whisker calibrate camera`'s or the
+    authors'), a `whisker.lens.Lens`, or a (mtx, dist[, model]) tuple; standard, rational and
+    fisheye models. undistort: "points" (track on the raw frame, undistort the centroids with
     cv2.undistortPoints: exact and cheap) or "image" (remap every frame first, as the authors' code
     does). mask: region-of-interest image (path or array), nonzero = track here. k_source: "design"
     (k = design.mm_per_px) or "ring" (k = ring radius / measured rest radius, after calibrate()).
@@ -298,13 +294,11 @@ class Tracker:
         self.n = design.whiskers.count
         self.threshold = int(threshold)
         self.k_source = k_source
-        if calibration is None:
-            self.mtx, self.dist = None, None
-        elif isinstance(calibration, (str, Path)):
-            self.mtx, self.dist = load_calibration(calibration)
-        else:
-            self.mtx = geometry.camera_matrix(design, calibration[0])
-            self.dist = np.asarray(calibration[1], dtype=float).ravel()
+        from whisker.lens import as_lens
+
+        self.lens = as_lens(calibration)   # any lens model (whisker.lens): standard, rational, fisheye
+        self.mtx = None if self.lens is None else geometry.camera_matrix(design, self.lens.mtx)
+        self.dist = None if self.lens is None else self.lens.dist
         self.undistort = undistort if self.dist is not None else "none"
         self.mask = None if mask is None else load_mask(mask)
         self.shape = self.mask.shape if self.mask is not None else (design.camera.height_px, design.camera.width_px)
@@ -316,7 +310,8 @@ class Tracker:
         # predicted rest positions in tracking coordinates (distorted unless frames are remapped)
         xyz = geometry.rest_marker_xyz(design)
         dist = self.dist if self.undistort == "points" else None
-        self.predicted = geometry.project(design, xyz, mtx=self.mtx, dist=dist)
+        self.predicted = geometry.project(design, xyz, mtx=self.mtx, dist=dist,
+                                          model=self.lens.model if self.lens is not None else "standard")
         if self.n > 1:
             dd = np.hypot(*(self.predicted[:, None, :] - self.predicted[None, :, :]).transpose(2, 0, 1))
             self.spacing = float(np.min(dd[~np.eye(self.n, dtype=bool)]))
@@ -342,8 +337,10 @@ class Tracker:
             import cv2
 
             if self._maps is None:
+                from whisker.lens import undistort_maps
+
                 h, w = img.shape[:2]
-                self._maps = cv2.initUndistortRectifyMap(self.mtx, self.dist, None, self.mtx, (w, h), cv2.CV_16SC2)
+                self._maps = undistort_maps(self.lens, (w, h), self.mtx)
             if self.mask is not None:
                 img = cv2.bitwise_and(img, img, mask=self.mask)
             return cv2.remap(img, *self._maps, cv2.INTER_LINEAR), None
@@ -354,13 +351,12 @@ class Tracker:
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
         if self.undistort != "points" or len(xy) == 0:
             return xy.copy()
-        import cv2
+        from whisker.lens import undistort_points
 
         out = np.full_like(xy, np.nan)
         ok = np.all(np.isfinite(xy), axis=1)
         if ok.any():
-            und = cv2.undistortPoints(xy[ok].reshape(-1, 1, 2), self.mtx, self.dist, P=self.mtx)
-            out[ok] = und.reshape(-1, 2)
+            out[ok] = undistort_points(self.lens, xy[ok], P=self.mtx)
         return out
 
     @property

@@ -1,0 +1,167 @@
+"""`whisker calibrate`: from an assembled sensor to trustworthy numbers (docs/bringup.md).
+
+camera     lens calibration from ChArUco views (fisheye and rational models, the better one kept)
+board      the ChArUco board for the design, PNG + PDF at true scale
+wiring     pulse every coil, diagnose swapped / reversed / dead coils, write a pin-map override
+stiffness  the paper's Fig. 4 protocol: fit the membrane's rotational stiffness
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from whisker.cliutil import design_options, fail
+
+
+@click.group()
+def cli():
+    """Calibrate a built sensor: lens, board, coil wiring, membrane stiffness (docs/bringup.md)."""
+
+
+# ---- camera -----------------------------------------------------------------------------------------
+
+def _collect_views(spec, source, max_frames: int, every: int, progress: bool):
+    """Detected board views and refused frames (name, reason) from a frame source."""
+    from tqdm import tqdm
+
+    from whisker.calibration import View, detect
+
+    board = spec.board()
+    views, rejected, size, frames = [], [], None, 0
+    first = None
+    it = tqdm(source, total=max_frames, desc="board views", unit="frame", disable=not progress, leave=False)
+    for fr in it:
+        if frames >= max_frames:
+            break
+        frames += 1
+        if fr.index % every:
+            continue
+        name = f"frame {fr.index}"
+        img = fr.image
+        got = detect(spec, img, name, board=board)
+        if isinstance(got, View):
+            shape = img.shape[1], img.shape[0]
+            if size is not None and shape != size:
+                rejected.append((name, f"frame is {shape[0]}x{shape[1]} px, the others {size[0]}x{size[1]}"))
+                continue
+            size = shape
+            views.append(got)
+            if first is None:
+                first = img
+        else:
+            rejected.append((name, got))
+    return views, rejected, size, frames, first
+
+
+@cli.command()
+@design_options
+@click.option("--source", required=True, metavar="SOURCE",
+              help="Frames showing the board: picamera, a camera index, a video file or an image folder.")
+@click.option("--out", "out", required=True, type=click.Path(dir_okay=False),
+              help="Lens .npz to write (mtx, dist, model, image_size, rms_px): what `whisker track --calibration` reads. "
+                   "The report goes beside it: OUT.report.json and OUT.undistorted.png.")
+@click.option("--max-frames", type=click.IntRange(1, 100000), default=600, show_default=True,
+              help="Read at most this many frames (a live camera runs until then).")
+@click.option("--every", type=click.IntRange(1, 1000), default=1, show_default=True,
+              help="Use every Nth frame (videos, live cameras: fewer, more different views).")
+@click.option("--plane-view", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="A frame of the board in its holder at the marker plane: mm per px measured there.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+def camera(design, source, out, max_frames, every, plane_view, quiet):
+    """Calibrate the lens from ChArUco board views (print the board with `whisker calibrate board`).
+
+    Show the board at many tilts and places, covering the image corners too. Both OpenCV lens models
+    are fitted (fisheye and rational); every 4th view is held out and the model with the lower
+    held-out reprojection error is written. Example:
+
+    \b
+      whisker calibrate camera --source board_frames/ --out hw/lens.npz
+    """
+    import cv2
+
+    from whisker.calibration import (CalibrationInputError, View, board_for, before_after, calibrate_views,
+                                     camera_report, detect)
+    from whisker.camera import SourceError, open_source
+    from whisker.files import atomic_write_bytes, atomic_write_json
+    from whisker.lens import lens_bytes
+
+    out = Path(out)
+    if out.suffix != ".npz":
+        fail(f"--out must end in .npz, got {out}")
+    try:
+        spec = board_for(design)
+        with open_source(source, design) as src:
+            views, rejected, size, frames, first = _collect_views(spec, src, max_frames, every, not quiet)
+        if frames == 0:
+            fail(f"camera: source {source} returned no frames", 1)
+        cal = calibrate_views(views, size, rejected)
+        pv = None
+        if plane_view:
+            got = detect(spec, cv2.imread(plane_view), plane_view)
+            if not isinstance(got, View):
+                fail(f"--plane-view {plane_view}: {got}")
+            pv = got
+        report = camera_report(cal, design, pv)
+    except (SourceError, CalibrationInputError) as err:
+        fail(f"camera: {err}")
+    except OSError as err:
+        fail(f"camera: {err}", 1)
+    report["board"] = spec.as_dict()
+    report["source"] = str(source)
+    stem = out.with_suffix("")
+    ok, png = cv2.imencode(".png", before_after(cal.lens, first))
+    try:
+        atomic_write_json(f"{stem}.report.json", report)
+        atomic_write_bytes(f"{stem}.undistorted.png", png.tobytes())
+        atomic_write_bytes(out, lens_bytes(cal.lens, rms_px=cal.heldout_px[cal.lens.model],
+                                           rms_fit_px=cal.rms_fit_px, views=len(cal.views)))
+    except OSError as err:
+        fail(f"camera: cannot write {out}: {err}", 1)
+    mm = report["mm_per_px"]
+    fov = report["field_of_view_deg"]
+    held = ", ".join(f"{m} {e:.3f}" if e is not None else f"{m} failed" for m, e in report["heldout_rms_px"].items())
+    click.echo(f"{out}: {cal.lens.model} model from {len(cal.views)} views ({len(rejected)} refused); "
+               f"held-out RMS px: {held}")
+    click.echo(f"f = {report['fx_px']:.2f} x {report['fy_px']:.2f} px, centre ({report['cx_px']:.1f}, "
+               f"{report['cy_px']:.1f}) px; field of view {fov['horizontal']:.1f} x {fov['vertical']:.1f} deg "
+               f"({fov['diagonal']:.1f} diagonal)")
+    line = (f"mm/px at the marker plane: {mm['at_design_distance']:.5f} at the design distance "
+            f"(design {mm['design']:.5f}, {mm['difference_pct']:+.2f} %)")
+    if "plane_view" in mm:
+        line += f"; holder view {mm['plane_view']:.5f} at {mm['plane_view_distance_mm']:.2f} mm"
+    click.echo(line)
+    click.echo(f"report: {stem}.report.json, {stem}.undistorted.png")
+
+
+# ---- board ------------------------------------------------------------------------------------------
+
+@cli.command()
+@design_options
+@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="exports/calibration", show_default=True,
+              help="Folder for charuco_board.png, charuco_board.pdf and charuco_board.json.")
+@click.option("--dpi", type=click.IntRange(150, 2400), default=600, show_default=True, help="PNG resolution.")
+def board(design, out_dir, dpi):
+    """Write the ChArUco board sized for the design's camera distance and field of view.
+
+    Print the PDF at 100 % ("actual size", no fit-to-page) and measure the 10 mm scale bar.
+    """
+    from whisker.calibration import CalibrationInputError, board_for, board_files
+    from whisker.files import publish, staging_dir
+
+    try:
+        spec = board_for(design)
+        out = Path(out_dir)
+        with staging_dir(out) as tmp:
+            names = board_files(spec, tmp, dpi)
+            publish(tmp, out, names)
+    except CalibrationInputError as err:
+        fail(f"board: {err}")
+    except OSError as err:
+        fail(f"board: {err}", 1)
+    w, h = spec.size_mm
+    click.echo(f"{out}/charuco_board.pdf: {spec.squares_x} x {spec.squares_y} squares of {spec.square_mm:g} mm "
+               f"({w:g} x {h:g} mm, {spec.dictionary} markers of {spec.marker_mm:g} mm); print at 100 %")
+    click.echo(json.dumps(spec.as_dict()))
