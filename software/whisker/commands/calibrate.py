@@ -165,3 +165,152 @@ def board(design, out_dir, dpi):
     click.echo(f"{out}/charuco_board.pdf: {spec.squares_x} x {spec.squares_y} squares of {spec.square_mm:g} mm "
                f"({w:g} x {h:g} mm, {spec.dictionary} markers of {spec.marker_mm:g} mm); print at 100 %")
     click.echo(json.dumps(spec.as_dict()))
+
+
+# ---- wiring -----------------------------------------------------------------------------------------
+
+def _int_list(text: str, what: str) -> list[int]:
+    try:
+        return [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        fail(f"--sim-miswire: {what} must be comma-separated integers, got {text!r}")
+
+
+def _sim_harness(spec: str | None, n: int):
+    """--sim-miswire ORDER[/SIGNS[/DEAD]] -> Harness (e.g. 0,3,2,1,4,5,6,7/1,1,1,1,1,-1,1,1/)."""
+    from whisker.wiring_check import Harness
+
+    if not spec:
+        return Harness.correct(n)
+    parts = spec.split("/")
+    order = _int_list(parts[0], "ORDER") or list(range(n))
+    sign = _int_list(parts[1], "SIGNS") if len(parts) > 1 and parts[1] else [1] * n
+    dead = set(_int_list(parts[2], "DEAD")) if len(parts) > 2 and parts[2] else set()
+    if sorted(order) != list(range(n)) or len(sign) != n or any(s not in (1, -1) for s in sign) \
+            or not dead <= set(range(n)):
+        fail(f"--sim-miswire: ORDER must be a permutation of 0..{n - 1}, SIGNS {n} values of 1/-1, DEAD channels "
+             f"0..{n - 1}; got {spec!r}")
+    return Harness(order, sign, dead)
+
+
+class _Device:
+    """Actuator, frame grabber, sleep and clock of the backend (the simulator or the real sensor)."""
+
+    def __init__(self, design, backend: str, source, harness, policy: str = "cut"):
+        from whisker.actuation import Actuator, open_actuator
+        from whisker.guard import ThermalGuard
+
+        if backend == "sim":
+            from whisker.wiring_check import MiswiredSim, SimCamera, VirtualClock
+
+            clock = VirtualClock()
+            self.backend = MiswiredSim(design, harness, clock=clock)
+            self.actuator = Actuator(design, self.backend, guard=ThermalGuard(design, clock=clock, policy=policy),
+                                     watchdog=False, clock=clock)
+            self.grab = SimCamera(design, self.backend).grab
+            self.sleep = clock.sleep
+            self._src = None
+            return
+        import time
+
+        from whisker.camera import open_source
+
+        if not source:
+            fail("--backend gpio needs --source (the sensor's camera: picamera or a camera index)")
+        self._src = open_source(source, design)
+        self._it = iter(self._src)
+        self.actuator = open_actuator(design, backend, policy=policy)
+        self.sleep = time.sleep
+
+        def grab():
+            fr = next(self._it, None)
+            if fr is None or fr.image is None:
+                raise OSError(f"camera {source} returned no frame")
+            return fr.image
+        self.grab = grab
+
+    def close(self):
+        self.actuator.close()
+        if self._src is not None:
+            self._src.close()
+
+
+@cli.command()
+@design_options
+@click.option("--backend", type=click.Choice(["gpio", "sim"]), required=True,
+              help="gpio: the sensor's coils and camera; sim: the simulator (try it with --sim-miswire).")
+@click.option("--source", default=None, metavar="SOURCE", help="Camera for --backend gpio: picamera or an index.")
+@click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
+              help="Design file to write with the pin-map override ([wiring] coil_order, coil_polarity): a copy "
+                   "of --design (or hw/sensor.toml) with those two lines. Without --out nothing is written.")
+@click.option("--volts", type=click.FloatRange(0.1, 10), default=1.5, show_default=True,
+              help="Mean coil volts of each pulse (a safe level: about half the grasping voltage).")
+@click.option("--settle", type=click.FloatRange(0.05, 10), default=0.5, show_default=True,
+              help="Seconds after switching a coil on or off before the frames are taken.")
+@click.option("--min-px", type=click.FloatRange(0.1, 100), default=1.0, show_default=True,
+              help="A channel whose marker moves less than this (px) is a dead coil.")
+@click.option("--calibration", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="Lens .npz from `whisker calibrate camera`.")
+@click.option("--sim-miswire", default=None, metavar="ORDER[/SIGNS[/DEAD]]",
+              help="Simulated harness fault: channel j reaches coil ORDER[j] with sign SIGNS[j]; DEAD channels drive "
+                   "nothing. E.g. 0,3,2,1,4,5,6,7/1,1,1,1,1,-1,1,1 swaps coils 1 and 3 and reverses coil 5.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+def wiring(design, backend, source, out, volts, settle, min_px, calibration, sim_miswire, quiet):
+    """Pulse each coil alone, track the markers, diagnose the wiring and write the pin-map fix.
+
+    For every channel: which marker moved, how far (px) and which way (outward = retracts, as a
+    positive level should), and the largest motion of any other marker (cross-talk, px). Swapped
+    coils, reversed leads and dead coils are named. With --out, the override goes into a copy of the
+    design file; use it with `--design FILE` from then on. Example:
+
+    \b
+      whisker calibrate wiring --backend gpio --source picamera --out my_sensor.toml
+      whisker actuate retract --backend gpio --design my_sensor.toml
+    """
+    from whisker.design import DEFAULT_DESIGN
+    from whisker.files import atomic_write_text
+    from whisker.guard import RatingError, volts_to_levels
+    from whisker.tracking import CalibrationError, Tracker
+    from whisker.wiring_check import WiringError, diagnose, override_for, pulse_coils, with_override
+
+    n = design.whiskers.count
+    harness = _sim_harness(sim_miswire, n)
+    if sim_miswire and backend != "sim":
+        fail("--sim-miswire works only with --backend sim")
+    base_file = click.get_current_context().params.get("design_file") or DEFAULT_DESIGN
+    try:
+        level = float(volts_to_levels(design, volts))
+        tracker = Tracker(design, "roi", calibration=calibration)
+        dev = _Device(design, backend, source, harness)
+        from tqdm import tqdm
+
+        bar = tqdm(total=n, desc="coil pulses", unit="coil", disable=quiet, leave=False)
+        try:
+            resp, rest = pulse_coils(dev.actuator, dev.grab, tracker, level, settle_s=settle, sleep=dev.sleep,
+                                     progress=lambda i: bar.update())
+        finally:
+            bar.close()
+            dev.close()
+        diag = diagnose(resp, rest, min_px=min_px)
+        for line in diag.lines():
+            click.echo(line)
+        if diag.dead:
+            override_for(design, diag)   # raises with the reason
+        if diag.ok:
+            click.echo("wiring: every coil retracts its own whisker; no override needed")
+        else:
+            click.echo(f"wiring: swapped {diag.swapped or 'none'}, reversed {diag.reversed or 'none'}")
+        order, pol = override_for(design, diag)
+        if out:
+            from pathlib import Path
+
+            atomic_write_text(out, with_override(Path(base_file).read_text(), order, pol))
+            click.echo(f"{out}: [wiring] coil_order = {order}, coil_polarity = {pol}")
+        elif not diag.ok:
+            click.echo(f"give --out FILE to write the fix: coil_order = {order}, coil_polarity = {pol}")
+    except (WiringError, CalibrationError) as err:
+        fail(f"wiring: {err}", 1)
+    except (RatingError, ValueError) as err:
+        fail(f"wiring: {err}")
+    except OSError as err:
+        fail(f"wiring: {err}", 1)
