@@ -18,7 +18,6 @@ and ``SimCamera`` renders the simulated markers into frames for the tracker.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -251,14 +250,8 @@ def override_for(design, diag: WiringDiagnosis) -> tuple[list[int], list[int]]:
 
 def with_override(toml_text: str, order, polarity) -> str:
     """The design file's text with [wiring] coil_order / coil_polarity set (other lines untouched)."""
-    lines = toml_text.splitlines()
-    new = [f"coil_order = [{', '.join(str(int(v)) for v in order)}]      # written by `whisker calibrate wiring`",
-           f"coil_polarity = [{', '.join(str(int(v)) for v in polarity)}]  # -1: forward/backward pins exchanged"]
-    head = next((i for i, ln in enumerate(lines) if re.match(r"\s*\[wiring\]\s*(#.*)?$", ln)), None)
-    if head is None:
-        return "\n".join(lines + ["", "[wiring]"] + new) + "\n"
-    end = next((i for i in range(head + 1, len(lines)) if re.match(r"\s*\[", lines[i])), len(lines))
-    body = [ln for ln in lines[head + 1:end] if not re.match(r"\s*coil_(order|polarity)\s*=", ln)]
-    while body and not body[-1].strip():
-        body.pop()
-    return "\n".join(lines[:head + 1] + body + new + ([""] if end < len(lines) else []) + lines[end:]) + "\n"
+    from whisker.design_edit import set_keys
+
+    return set_keys(toml_text, "wiring", {"coil_order": f"[{', '.join(str(int(v)) for v in order)}]",
+                                          "coil_polarity": f"[{', '.join(str(int(v)) for v in polarity)}]"},
+                    "pin-map override written by `whisker calibrate wiring`")

@@ -207,7 +207,8 @@ class _Device:
             self.backend = MiswiredSim(design, harness, clock=clock)
             self.actuator = Actuator(design, self.backend, guard=ThermalGuard(design, clock=clock, policy=policy),
                                      watchdog=False, clock=clock)
-            self.grab = SimCamera(design, self.backend).grab
+            self.camera = SimCamera(design, self.backend)
+            self.grab = self.camera.grab
             self.sleep = clock.sleep
             self._src = None
             return
@@ -228,6 +229,9 @@ class _Device:
                 raise OSError(f"camera {source} returned no frame")
             return fr.image
         self.grab = grab
+
+    def camera_noise(self, sigma: float) -> None:
+        self.camera.noise = float(sigma)
 
     def close(self):
         self.actuator.close()
@@ -314,3 +318,105 @@ def wiring(design, backend, source, out, volts, settle, min_px, calibration, sim
         fail(f"wiring: {err}")
     except OSError as err:
         fail(f"wiring: {err}", 1)
+
+
+# ---- stiffness --------------------------------------------------------------------------------------
+
+@cli.command()
+@design_options
+@click.option("--backend", type=click.Choice(["gpio", "sim"]), required=True,
+              help="gpio: the sensor's coils and camera; sim: the simulator (see --sim-set).")
+@click.option("--source", default=None, metavar="SOURCE", help="Camera for --backend gpio: picamera or an index.")
+@click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
+              help="Design file to write: a copy of --design with mechanics.rotational_stiffness (and actuation.gap "
+                   "when the data fix it) set. The plot and report go beside it (OUT.stiffness.png/.json).")
+@click.option("--steps", type=click.IntRange(2, 20), default=5, show_default=True,
+              help="Voltage magnitudes up to actuation.voltage, each in both polarities.")
+@click.option("--max-volts", type=click.FloatRange(0.1, 10), default=None,
+              help="Largest step (default actuation.voltage, the paper's 3 V).")
+@click.option("--settle", type=click.FloatRange(0.05, 10), default=0.6, show_default=True,
+              help="Seconds each step is held before its frames are taken.")
+@click.option("--fixed-gap", is_flag=True, help="Fit the stiffness only; keep actuation.gap from the design.")
+@click.option("--calibration", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="Lens .npz from `whisker calibrate camera`.")
+@click.option("--sim-set", multiple=True, metavar="SECTION.KEY=VALUE",
+              help="The simulated device differs from the design by this (e.g. mechanics.rotational_stiffness=1.6).")
+@click.option("--sim-noise", type=click.FloatRange(0, 50), default=3.0, show_default=True,
+              help="Camera noise of the simulated frames, grey levels.")
+@click.option("--sim-miswire", default=None, metavar="ORDER[/SIGNS[/DEAD]]",
+              help="Simulated harness fault, as for `calibrate wiring`.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+def stiffness(design, backend, source, out, steps, max_volts, settle, fixed_gap, calibration, sim_set, sim_noise,
+              sim_miswire, quiet):
+    """Fit the membrane's rotational stiffness from tracked tilts at voltage steps (paper Fig. 4).
+
+    Every coil is driven at +v and -v for each step (coils off and cooled between steps, through the
+    thermal guard); the tracked tilt of each whisker is fitted with the coil model (whisker.coil).
+    Run `whisker calibrate wiring` first: reversed coils make the fit meaningless. Example:
+
+    \b
+      whisker calibrate stiffness --backend gpio --source picamera --design my_sensor.toml --out my_sensor.toml
+    """
+    from pathlib import Path
+
+    import numpy as np
+    from tqdm import tqdm
+
+    from whisker.design import DEFAULT_DESIGN, DesignError, apply_overrides, design_from_dict
+    from whisker.design_edit import set_keys
+    from whisker.files import atomic_write_bytes, atomic_write_json, atomic_write_text
+    from whisker.guard import RatingError
+    from whisker.stiffness_fit import StiffnessError, fit, measure_tilts, plot_png, steps_volts
+    from whisker.tracking import CalibrationError, Tracker
+    base_file = click.get_current_context().params.get("design_file") or DEFAULT_DESIGN
+    device = design
+    if sim_set:
+        if backend != "sim":
+            fail("--sim-set works only with --backend sim")
+        try:
+            device = design_from_dict(apply_overrides(design.to_dict(), sim_set))
+        except DesignError as err:
+            fail(f"--sim-set: {err}")
+    volts = steps_volts(design, steps, max_volts)
+    try:
+        tracker = Tracker(design, "roi", calibration=calibration)
+        if sim_miswire and backend != "sim":
+            fail("--sim-miswire works only with --backend sim")
+        dev = _Device(device, backend, source, _sim_harness(sim_miswire, design.whiskers.count))
+        if backend == "sim":
+            dev.camera_noise(sim_noise)
+        bar = tqdm(total=len(volts), desc="voltage steps", unit="step", disable=quiet, leave=False)
+        try:
+            tilts = measure_tilts(dev.actuator, dev.grab, tracker, volts, settle_s=settle, sleep=dev.sleep,
+                                  progress=lambda s: bar.update())
+        finally:
+            bar.close()
+            dev.close()
+        res = fit(design, volts, tilts, fit_gap=not fixed_gap)
+    except (StiffnessError, CalibrationError) as err:
+        fail(f"stiffness: {err}", 1)
+    except (RatingError, ValueError) as err:
+        fail(f"stiffness: {err}")
+    except OSError as err:
+        fail(f"stiffness: {err}", 1)
+    res["volts"] = volts.tolist()
+    res["tilts_deg"] = [[None if not np.isfinite(x) else float(x) for x in row] for row in tilts]
+    k = res["rotational_stiffness_Nmm_per_rad"]
+    click.echo(f"rotational stiffness {k:.4g} N*mm/rad (design {design.mechanics.rotational_stiffness:g}), "
+               f"rest gap {res['gap_mm']:.3f} mm " + ("(fitted)" if res["gap_identified"] else
+                                                     f"(design's: the data do not fix it, best {res['gap_best_mm']:.2f})")
+               + f"; RMS residual {res['rms_residual_deg']:.3f} deg over {res['points']} points")
+    stem = Path(out).with_suffix("") if out else Path("stiffness")
+    try:
+        atomic_write_bytes(f"{stem}.stiffness.png", plot_png(design, volts, tilts, res))
+        atomic_write_json(f"{stem}.stiffness.json", res)
+        if out:
+            text = set_keys(Path(base_file).read_text(), "mechanics", {"rotational_stiffness": f"{k:.4g}"},
+                            "N*mm/rad, fitted by `whisker calibrate stiffness`")
+            if res["gap_identified"]:
+                text = set_keys(text, "actuation", {"gap": f"{res['gap_mm']:.3f}"},
+                                "mm, fitted by `whisker calibrate stiffness`")
+            atomic_write_text(out, text)
+    except OSError as err:
+        fail(f"stiffness: cannot write {stem}: {err}", 1)
+    click.echo(f"plot: {stem}.stiffness.png, report: {stem}.stiffness.json" + (f"; design: {out}" if out else ""))
