@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from conftest import run_cli
-from whisker.calibration import (MIN_VIEWS, CalibrationInputError, View, board_for, calibrate_views, detect,
-                                 random_poses, render_board_view)
+from whisker.calibration import (DEMO_LENS, MIN_VIEWS, CalibrationInputError, View, board_for, calibrate_views, detect,
+                                 random_poses, render_board_view, synthetic_board_views)
 from whisker.design import default_design
 from whisker.lens import Lens, load_lens, undistort_points
 from whisker.render import marker_pixels, render_frame
@@ -20,21 +20,19 @@ from whisker.tracking import Tracker
 D = default_design()
 SIZE = (D.camera.width_px, D.camera.height_px)
 # the truth: a fisheye lens near the authors' (f ~ 349 px), principal point off the image centre
-TRUE = Lens(np.array([[352.0, 0.0, 326.4], [0.0, 350.6, 236.3], [0.0, 0.0, 1.0]]),
-            np.array([0.031, -0.012, 0.004, -0.0009]), "fisheye", SIZE)
+TRUE = DEMO_LENS
 POSES = 18
 
 
 @pytest.fixture(scope="module")
 def views_dir(tmp_path_factory):
-    """18 JPEG views (noise 2 grey levels, blur, JPEG quality 85) of the design's board at random poses."""
+    """18 JPEG views (noise 2 grey levels, blur, JPEG quality 85) of the design's board at random poses
+    through the known fisheye lens, written as files: the command reads them as an image folder."""
     import cv2
 
     folder = tmp_path_factory.mktemp("board_views")
-    spec = board_for(D)
-    rng = np.random.default_rng(7)
-    for i, (r, t) in enumerate(random_poses(spec, POSES, D.camera.distance, rng)):
-        img = render_board_view(spec, TRUE, r, t, SIZE, seed=i, noise_sigma=2.0, jpeg_quality=85)
+    for i, img in enumerate(synthetic_board_views(D, POSES)):
+        assert img.shape == (SIZE[1], SIZE[0], 3)
         cv2.imwrite(str(folder / f"view_{i:02d}.png"), img)  # already JPEG-coded once
     return folder
 

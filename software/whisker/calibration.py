@@ -381,3 +381,18 @@ def board_files(spec: BoardSpec, folder, dpi: int = 600) -> list[str]:
     plt.close(fig)
     (folder / "charuco_board.json").write_text(json.dumps(spec.as_dict(), indent=2) + "\n")
     return ["charuco_board.png", "charuco_board.pdf", "charuco_board.json"]
+
+
+#: the lens `synthetic_board_views` renders with: a fisheye near the authors' (f ~ 349 px), principal point
+#: off the image centre; a trial of `whisker calibrate camera --source synthetic-board` should recover it
+DEMO_LENS = Lens(np.array([[352.0, 0.0, 326.4], [0.0, 350.6, 236.3], [0.0, 0.0, 1.0]]),
+                 np.array([0.031, -0.012, 0.004, -0.0009]), "fisheye", (640, 480))
+
+
+def synthetic_board_views(design, count: int = 18, seed: int = 7, lens: Lens = DEMO_LENS):
+    """`count` JPEG-coded, noisy views of the design's board through `lens` at random poses (BGR)."""
+    spec = board_for(design)
+    rng = np.random.default_rng(seed)
+    size = (design.camera.width_px, design.camera.height_px)
+    return [render_board_view(spec, lens, r, t, size, seed=i, noise_sigma=2.0, jpeg_quality=85)
+            for i, (r, t) in enumerate(random_poses(spec, count, design.camera.distance, rng))]

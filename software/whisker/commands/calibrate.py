@@ -56,10 +56,30 @@ def _collect_views(spec, source, max_frames: int, every: int, progress: bool):
     return views, rejected, size, frames, first
 
 
+def _synthetic_board_source(design, spec: str):
+    """synthetic-board[:N]: N rendered board views through calibration.DEMO_LENS (a trial without a camera)."""
+    from whisker.calibration import synthetic_board_views
+    from whisker.camera import Frame, FrameSource, SourceError
+
+    try:
+        count = int(spec.split(":", 1)[1]) if ":" in spec else 18
+    except ValueError:
+        raise SourceError(f"synthetic-board count must be an integer, got {spec!r}") from None
+
+    class _Views(FrameSource):
+        name = spec
+
+        def __iter__(self):
+            for i, img in enumerate(synthetic_board_views(design, count)):
+                yield Frame(i, i / self.fps, img)
+    return _Views()
+
+
 @cli.command()
 @design_options
 @click.option("--source", required=True, metavar="SOURCE",
-              help="Frames showing the board: picamera, a camera index, a video file or an image folder.")
+              help="Frames showing the board: picamera, a camera index, a video file or an image folder; "
+                   "synthetic-board[:N] renders N views through a known fisheye lens (a trial).")
 @click.option("--out", "out", required=True, type=click.Path(dir_okay=False),
               help="Lens .npz to write (mtx, dist, model, image_size, rms_px): what `whisker track --calibration` reads. "
                    "The report goes beside it: OUT.report.json and OUT.undistorted.png.")
@@ -93,7 +113,11 @@ def camera(design, source, out, max_frames, every, plane_view, quiet):
         fail(f"--out must end in .npz, got {out}")
     try:
         spec = board_for(design)
-        with open_source(source, design) as src:
+        if source.split(":")[0] == "synthetic-board":
+            src = _synthetic_board_source(design, source)
+        else:
+            src = open_source(source, design)
+        with src:
             views, rejected, size, frames, first = _collect_views(spec, src, max_frames, every, not quiet)
         if frames == 0:
             fail(f"camera: source {source} returned no frames", 1)
