@@ -183,3 +183,22 @@ def test_board_pdf_is_true_scale_and_png_detects(tmp_path):
     # 300 dpi: a square is square_mm * 300 / 25.4 px
     d = np.diff(got.image_px[:2], axis=0)
     assert np.hypot(*d[0]) == pytest.approx(spec.square_mm * 300 / 25.4, rel=0.01)
+
+
+def test_plane_view_measures_distance_and_mm_per_px():
+    """A fronto-parallel board at the marker plane (as the board holder sets it): its distance and mm/px."""
+    from whisker.calibration import board_pose, plane_mm_per_px
+
+    spec = board_for(D)
+    r, t = board_pose(spec, D.camera.distance, 0.0, 0.0, 10.0)
+    view = detect(spec, render_board_view(spec, TRUE, r, t, SIZE))
+    assert isinstance(view, View)
+    z, k = plane_mm_per_px(TRUE, view)
+    assert z == pytest.approx(D.camera.distance, abs=0.05)
+    assert k == pytest.approx(D.camera.distance / np.sqrt(352.0 * 350.6), rel=1e-3)
+
+
+@pytest.mark.parametrize("sub", ["", "camera", "board", "wiring", "stiffness"])
+def test_every_calibrate_command_has_help(sub):
+    res = run_cli("calibrate", *([sub] if sub else []), "--help")
+    assert res.returncode == 0 and "Usage" in res.stdout
