@@ -263,11 +263,27 @@ class _Device:
             self._src.close()
 
 
+def device_options(f):
+    """The options of the commands that drive the coils and watch the markers (wiring, stiffness)."""
+    opts = [
+        click.option("--backend", type=click.Choice(["gpio", "sim"]), required=True,
+                     help="gpio: the sensor's coils and camera; sim: the simulator (see --sim-miswire, --sim-set)."),
+        click.option("--source", default=None, metavar="SOURCE", help="Camera for --backend gpio: picamera or an index."),
+        click.option("--calibration", type=click.Path(exists=True, dir_okay=False), default=None,
+                     help="Lens .npz from `whisker calibrate camera`."),
+        click.option("--sim-miswire", default=None, metavar="ORDER[/SIGNS[/DEAD]]",
+                     help="Simulated harness fault: channel j reaches coil ORDER[j] with sign SIGNS[j]; DEAD channels "
+                          "drive nothing. E.g. 0,3,2,1,4,5,6,7/1,1,1,1,1,-1,1,1 swaps coils 1 and 3, reverses coil 5."),
+        click.option("-q", "--quiet", is_flag=True, help="No progress bar."),
+    ]
+    for opt in reversed(opts):
+        f = opt(f)
+    return f
+
+
 @cli.command()
 @design_options
-@click.option("--backend", type=click.Choice(["gpio", "sim"]), required=True,
-              help="gpio: the sensor's coils and camera; sim: the simulator (try it with --sim-miswire).")
-@click.option("--source", default=None, metavar="SOURCE", help="Camera for --backend gpio: picamera or an index.")
+@device_options
 @click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
               help="Design file to write with the pin-map override ([wiring] coil_order, coil_polarity): a copy "
                    "of --design (or hw/sensor.toml) with those two lines. Without --out nothing is written.")
@@ -277,12 +293,6 @@ class _Device:
               help="Seconds after switching a coil on or off before the frames are taken.")
 @click.option("--min-px", type=click.FloatRange(0.1, 100), default=1.0, show_default=True,
               help="A channel whose marker moves less than this (px) is a dead coil.")
-@click.option("--calibration", type=click.Path(exists=True, dir_okay=False), default=None,
-              help="Lens .npz from `whisker calibrate camera`.")
-@click.option("--sim-miswire", default=None, metavar="ORDER[/SIGNS[/DEAD]]",
-              help="Simulated harness fault: channel j reaches coil ORDER[j] with sign SIGNS[j]; DEAD channels drive "
-                   "nothing. E.g. 0,3,2,1,4,5,6,7/1,1,1,1,1,-1,1,1 swaps coils 1 and 3 and reverses coil 5.")
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 def wiring(design, backend, source, out, volts, settle, min_px, calibration, sim_miswire, quiet):
     """Pulse each coil alone, track the markers, diagnose the wiring and write the pin-map fix.
 
@@ -348,9 +358,7 @@ def wiring(design, backend, source, out, volts, settle, min_px, calibration, sim
 
 @cli.command()
 @design_options
-@click.option("--backend", type=click.Choice(["gpio", "sim"]), required=True,
-              help="gpio: the sensor's coils and camera; sim: the simulator (see --sim-set).")
-@click.option("--source", default=None, metavar="SOURCE", help="Camera for --backend gpio: picamera or an index.")
+@device_options
 @click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
               help="Design file to write: a copy of --design with mechanics.rotational_stiffness (and actuation.gap "
                    "when the data fix it) set. The plot and report go beside it (OUT.stiffness.png/.json).")
@@ -361,15 +369,10 @@ def wiring(design, backend, source, out, volts, settle, min_px, calibration, sim
 @click.option("--settle", type=click.FloatRange(0.05, 10), default=0.6, show_default=True,
               help="Seconds each step is held before its frames are taken.")
 @click.option("--fixed-gap", is_flag=True, help="Fit the stiffness only; keep actuation.gap from the design.")
-@click.option("--calibration", type=click.Path(exists=True, dir_okay=False), default=None,
-              help="Lens .npz from `whisker calibrate camera`.")
 @click.option("--sim-set", multiple=True, metavar="SECTION.KEY=VALUE",
               help="The simulated device differs from the design by this (e.g. mechanics.rotational_stiffness=1.6).")
 @click.option("--sim-noise", type=click.FloatRange(0, 50), default=3.0, show_default=True,
               help="Camera noise of the simulated frames, grey levels.")
-@click.option("--sim-miswire", default=None, metavar="ORDER[/SIGNS[/DEAD]]",
-              help="Simulated harness fault, as for `calibrate wiring`.")
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 def stiffness(design, backend, source, out, steps, max_volts, settle, fixed_gap, calibration, sim_set, sim_noise,
               sim_miswire, quiet):
     """Fit the membrane's rotational stiffness from tracked tilts at voltage steps (paper Fig. 4).
