@@ -124,3 +124,21 @@ def test_cli_dead_coil_one_line_and_previous_file_kept(tmp_path):
     assert out.read_text() == "previous"
     res = run_cli("calibrate", "wiring", "--backend", "sim", "--sim-miswire", "0,0,2", "-q")
     assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1
+
+
+def test_crosstalk_is_measured_in_px_and_named():
+    # channel 2's coil also pulls coil 3 with 30 % of its drive (a neighbour's field)
+    leaky = Harness(list(range(N)), [1] * N, leak={(2, 3): 0.3})
+    diag = _diagnose(D, leaky)
+    assert diag.ok and diag.marker_of == list(range(N))
+    assert [c[:2] for c in diag.crosstalk] == [[2, 3]]
+    assert diag.crosstalk[0][2] == pytest.approx(0.3 * diag.moved_px[3], rel=0.25)
+    assert "cross-talk: marker 3" in diag.lines()[2]
+
+
+def test_a_camera_that_returns_nothing_is_refused():
+    from whisker.tracking import CalibrationError
+
+    backend, act, clock = _device(D, FAULT)
+    with act, pytest.raises(CalibrationError, match="no usable rest frame"):
+        pulse_coils(act, lambda: None, Tracker(D, "roi"), 0.3, settle_s=0.1, sleep=clock.sleep)

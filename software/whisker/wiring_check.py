@@ -55,10 +55,12 @@ def without_override(design):
 @dataclass
 class Harness:
     """Physical wiring: pin-map channel j (of the design without override) reaches coil coil_of[j]
-    with sign[j] (-1 = leads reversed); channels in `dead` drive nothing (open lead)."""
+    with sign[j] (-1 = leads reversed); channels in `dead` drive nothing (open lead); `leak` stands
+    for cross-talk (a neighbour's field moving another coil): coil k also gets fraction f of channel j."""
     coil_of: list
     sign: list
     dead: set = field(default_factory=set)
+    leak: dict = field(default_factory=dict)   # (channel, coil) -> fraction of the channel's drive that coil also gets
 
     @staticmethod
     def correct(n: int) -> "Harness":
@@ -90,7 +92,11 @@ class MiswiredSim:
         out = np.zeros(self.n)
         for i, (j, s) in enumerate(self.route):
             if j not in self.harness.dead:
-                out[self.harness.coil_of[j]] += self.harness.sign[j] * s * float(levels[i])
+                lv = self.harness.sign[j] * s * float(levels[i])
+                out[self.harness.coil_of[j]] += lv
+                for (jj, coil), f in self.harness.leak.items():
+                    if jj == j:
+                        out[coil] += f * lv
         return out
 
     def set_levels(self, levels) -> None:
@@ -174,6 +180,7 @@ class WiringDiagnosis:
     dead: list               # channels that moved nothing
     swapped: list            # cycles of channels whose markers are permuted, e.g. [[1, 3]]
     reversed: list           # channels that moved their marker the wrong way
+    crosstalk: list = field(default_factory=list)   # [channel, other marker, px] above CROSSTALK_PX
 
     @property
     def ok(self) -> bool:
@@ -188,17 +195,20 @@ class WiringDiagnosis:
             way = "outward (retracts)" if s > 0 else "inward (extends)"
             note = "" if (m == i and s > 0) else "  <- " + ", ".join(
                 ([f"drives whisker {m}"] if m != i else []) + (["reversed"] if s < 0 else []))
+            talk = [f"marker {j} {p:.2f} px" for c, j, p in self.crosstalk if c == i]
+            note += ("  <- cross-talk: " + ", ".join(talk)) if talk else ""
             out.append(f"channel {i}: marker {m} moves {abs(px):.2f} px {way}; cross-talk {ct:.2f} px{note}")
         return out
 
     def summary(self) -> dict:
         return {"marker_of_channel": self.marker_of, "sign": self.sign, "moved_px": self.moved_px,
                 "crosstalk_px": self.crosstalk_px, "dead": self.dead, "swapped": self.swapped,
-                "reversed": self.reversed}
+                "reversed": self.reversed, "crosstalk": self.crosstalk}
 
 
-def diagnose(response, rest_xy, min_px: float = 1.0) -> WiringDiagnosis:
-    """Which marker each channel moves, and how (see module doc). response: (N, N, 2) px."""
+def diagnose(response, rest_xy, min_px: float = 1.0, crosstalk_px: float = 0.5) -> WiringDiagnosis:
+    """Which marker each channel moves, and how (see module doc). response: (N, N, 2) px; markers other
+    than a channel's own that move more than `crosstalk_px` are listed as cross-talk."""
     from scipy.optimize import linear_sum_assignment
 
     resp = np.asarray(response, dtype=float)
@@ -230,7 +240,9 @@ def diagnose(response, rest_xy, min_px: float = 1.0) -> WiringDiagnosis:
             k = marker_of[k]
         cycles.append(cyc)
     rev = [i for i in range(n) if sign[i] < 0]
-    return WiringDiagnosis(marker_of, sign, moved, cross, sorted(dead), cycles, rev)
+    talk = [[int(i), int(j), float(mag[i, j])] for i in range(n) for j in range(n)
+            if j != marker_of[i] and marker_of[i] >= 0 and mag[i, j] > crosstalk_px]
+    return WiringDiagnosis(marker_of, sign, moved, cross, sorted(dead), cycles, rev, talk)
 
 
 def override_for(design, diag: WiringDiagnosis) -> tuple[list[int], list[int]]:

@@ -244,7 +244,11 @@ class _Device:
             fail("--backend gpio needs --source (the sensor's camera: picamera or a camera index)")
         self._src = open_source(source, design)
         self._it = iter(self._src)
-        self.actuator = open_actuator(design, backend, policy=policy)
+        try:
+            self.actuator = open_actuator(design, backend, policy=policy)
+        except BaseException:
+            self._src.close()
+            raise
         self.sleep = time.sleep
 
         def grab():
@@ -350,7 +354,7 @@ def wiring(design, backend, source, out, volts, settle, min_px, calibration, sim
         fail(f"wiring: {err}", 1)
     except (RatingError, ValueError) as err:
         fail(f"wiring: {err}")
-    except OSError as err:
+    except (OSError, RuntimeError) as err:   # camera or coil driver unavailable (SourceError is one)
         fail(f"wiring: {err}", 1)
 
 
@@ -424,7 +428,7 @@ def stiffness(design, backend, source, out, steps, max_volts, settle, fixed_gap,
         fail(f"stiffness: {err}", 1)
     except (RatingError, ValueError) as err:
         fail(f"stiffness: {err}")
-    except OSError as err:
+    except (OSError, RuntimeError) as err:   # camera or coil driver unavailable (SourceError is one)
         fail(f"stiffness: {err}", 1)
     res["volts"] = volts.tolist()
     res["tilts_deg"] = [[None if not np.isfinite(x) else float(x) for x in row] for row in tilts]
