@@ -37,6 +37,7 @@ MARKER_FRACTION = 0.75  # ArUco marker side / square side
 MIN_CORNERS = 12        # ChArUco corners a view needs to count (fewer: a pose is poorly fixed)
 MIN_VIEWS = 10          # usable views the calibration needs (>= 3 held out + 7 to fit 8+4 parameters)
 HOLDOUT_EVERY = 4       # every 4th usable view is held out to choose the model
+MAX_VIEWS = 80          # more views (a live camera's stream) are thinned evenly: the fit time grows, not its accuracy
 DICTIONARIES = ((50, "DICT_4X4_50"), (100, "DICT_4X4_100"), (250, "DICT_4X4_250"), (1000, "DICT_4X4_1000"))
 
 
@@ -192,6 +193,8 @@ def calibrate_views(views: list[View], size_wh, rejected=(), models=("fisheye", 
         why = f"; {len(rejected)} refused, e.g. {rejected[0][0]}: {rejected[0][1]}" if rejected else ""
         raise CalibrationInputError(f"only {len(views)} usable board view(s), needs >= {MIN_VIEWS} "
                                     f"(board at different tilts and places in the image){why}")
+    if len(views) > MAX_VIEWS:
+        views = [views[i] for i in np.linspace(0, len(views) - 1, MAX_VIEWS).round().astype(int)]
     test = views[HOLDOUT_EVERY - 1::HOLDOUT_EVERY]
     train = [v for i, v in enumerate(views) if (i + 1) % HOLDOUT_EVERY]
     held, failures = {}, {}
