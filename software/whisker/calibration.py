@@ -132,7 +132,10 @@ def _fit(model: str, views: list[View], size_wh) -> tuple[Lens, float, list, lis
     img = [v.image_px.reshape(-1, 1, 2).astype(np.float64) for v in views]
     crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-10)
     if model == "fisheye":
-        flags = cv2.CALIB_RECOMPUTE_EXTRINSIC | cv2.CALIB_FIX_SKEW
+        # OpenCV 4.x keeps the fisheye flags in cv2.fisheye, OpenCV 5 in cv2 (with other values)
+        flags = 0
+        for name in ("CALIB_RECOMPUTE_EXTRINSIC", "CALIB_FIX_SKEW"):
+            flags |= getattr(cv2.fisheye, name, None) or getattr(cv2, name)
         rms, K, D, rv, tv = cv2.fisheye.calibrate([o.reshape(1, -1, 3) for o in obj], [i.reshape(1, -1, 2) for i in img], tuple(size_wh),
                                                   np.zeros((3, 3)), np.zeros((4, 1)), flags=flags, criteria=crit)
         lens = Lens(K, np.asarray(D).ravel()[:4], "fisheye", tuple(size_wh))
