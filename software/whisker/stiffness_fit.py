@@ -67,10 +67,13 @@ def measure_tilts(actuator, grab, tracker, volts, *, settle_s: float, sleep, fra
                   rest_frames: int = 5, progress=None) -> np.ndarray:
     """(S, N) signed tilts (deg) of every whisker at each voltage step (all coils driven together)."""
     from whisker.guard import volts_to_levels
+    from whisker.wiring_check import DISCARD_FRAMES, settled_results
 
     n = actuator.n
     actuator.neutral()
     sleep(settle_s)
+    for _ in range(DISCARD_FRAMES):
+        grab()
     tracker.calibrate([grab() for _ in range(rest_frames)])
     out = np.full((len(volts), n), np.nan)
     for s, v in enumerate(volts):
@@ -79,9 +82,7 @@ def measure_tilts(actuator, grab, tracker, volts, *, settle_s: float, sleep, fra
         actuator.apply(want, f"stiffness {v:+.2f} V")
         sleep(settle_s)
         applied = actuator.tick()
-        t = []
-        for _ in range(frames):
-            t.append(signed_tilts_deg(tracker, tracker.track(grab())))
+        t = [signed_tilts_deg(tracker, r) for r in settled_results(tracker, grab, frames)]
         with np.errstate(all="ignore"):
             out[s] = np.nanmean(np.array(t), axis=0)
         out[s, np.abs(applied - want) > 1e-9] = np.nan   # the thermal guard derated or cut this coil

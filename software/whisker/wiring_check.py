@@ -134,12 +134,20 @@ class SimCamera:
 
 # ---- protocol -------------------------------------------------------------------------------------
 
+DISCARD_FRAMES = 2   # frames dropped after a change: a live camera may hand out buffered, older frames
+
+
+def settled_results(tracker, grab, frames: int, discard: int = DISCARD_FRAMES) -> list:
+    """TrackResults of `frames` frames, after dropping `discard` (possibly buffered) ones."""
+    for _ in range(discard):
+        grab()
+    return [tracker.track(grab()) for _ in range(frames)]
+
+
 def _mean_displacement(tracker, grab, frames: int) -> np.ndarray:
     """(N, 2) mean tracked displacement from the rest baseline over `frames` frames (NaN if never seen)."""
-    d = []
-    for _ in range(frames):
-        r = tracker.track(grab())
-        d.append(np.where(r.valid[:, None], np.column_stack([r.dx_px, r.dy_px]), np.nan))
+    d = [np.where(r.valid[:, None], np.column_stack([r.dx_px, r.dy_px]), np.nan)
+         for r in settled_results(tracker, grab, frames)]
     with np.errstate(all="ignore"):
         return np.nanmean(np.array(d), axis=0)
 
@@ -154,6 +162,8 @@ def pulse_coils(actuator, grab, tracker, level: float, *, settle_s: float, sleep
     n = actuator.n
     actuator.neutral()
     sleep(settle_s)
+    for _ in range(DISCARD_FRAMES):
+        grab()
     tracker.calibrate([grab() for _ in range(rest_frames)])
     resp = np.full((n, n, 2), np.nan)
     for i in range(n):
