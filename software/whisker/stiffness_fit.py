@@ -67,14 +67,10 @@ def measure_tilts(actuator, grab, tracker, volts, *, settle_s: float, sleep, fra
                   rest_frames: int = 5, progress=None) -> np.ndarray:
     """(S, N) signed tilts (deg) of every whisker at each voltage step (all coils driven together)."""
     from whisker.guard import volts_to_levels
-    from whisker.wiring_check import DISCARD_FRAMES, settled_results
+    from whisker.wiring_check import rest_baseline, settled_results
 
     n = actuator.n
-    actuator.neutral()
-    sleep(settle_s)
-    for _ in range(DISCARD_FRAMES):
-        grab()
-    tracker.calibrate([grab() for _ in range(rest_frames)])
+    rest_baseline(actuator, grab, tracker, settle_s=settle_s, sleep=sleep, frames=rest_frames)
     out = np.full((len(volts), n), np.nan)
     for s, v in enumerate(volts):
         cool_down(actuator, sleep)

@@ -144,6 +144,15 @@ def settled_results(tracker, grab, frames: int, discard: int = DISCARD_FRAMES) -
     return [tracker.track(grab()) for _ in range(frames)]
 
 
+def rest_baseline(actuator, grab, tracker, *, settle_s: float, sleep, frames: int = 5):
+    """Every coil off, wait `settle_s`, then the tracker's rest baseline from `frames` fresh frames."""
+    actuator.neutral()
+    sleep(settle_s)
+    for _ in range(DISCARD_FRAMES):
+        grab()
+    return tracker.calibrate([grab() for _ in range(frames)])
+
+
 def _mean_displacement(tracker, grab, frames: int) -> np.ndarray:
     """(N, 2) mean tracked displacement from the rest baseline over `frames` frames (NaN if never seen)."""
     d = [np.where(r.valid[:, None], np.column_stack([r.dx_px, r.dy_px]), np.nan)
@@ -160,11 +169,7 @@ def pulse_coils(actuator, grab, tracker, level: float, *, settle_s: float, sleep
     Every coil is off between pulses (and the whiskers back at rest after `settle_s`).
     """
     n = actuator.n
-    actuator.neutral()
-    sleep(settle_s)
-    for _ in range(DISCARD_FRAMES):
-        grab()
-    tracker.calibrate([grab() for _ in range(rest_frames)])
+    rest_baseline(actuator, grab, tracker, settle_s=settle_s, sleep=sleep, frames=rest_frames)
     resp = np.full((n, n, 2), np.nan)
     for i in range(n):
         lv = np.zeros(n)
