@@ -93,3 +93,15 @@ def test_cli_writes_the_override_plot_and_report(tmp_path):
                   "--out", str(out), "-q")
     assert res.returncode == 1 and len(res.stderr.strip().splitlines()) == 1, res.stderr
     assert load_design(out).mechanics.rotational_stiffness == fitted.mechanics.rotational_stiffness
+
+
+def test_warm_coils_draw_less_current_and_the_fit_knows():
+    from whisker.guard import coil_current_A
+
+    device = _device(mechanics__rotational_stiffness=1.6)
+    volts, tilts = _tracked_tilts(device, noise=0.0)
+    cold = fit(D, volts, tilts, fit_gap=False)["rotational_stiffness_Nmm_per_rad"]
+    warm = fit(D, volts, tilts, fit_gap=False, temperatures_C=np.full(tilts.shape, 60.0))
+    ratio = float(coil_current_A(D, 1.0, 60.0) / coil_current_A(D, 1.0, 20.0))
+    assert ratio < 0.95
+    assert warm["rotational_stiffness_Nmm_per_rad"] == pytest.approx(cold * ratio, rel=1e-6)

@@ -64,8 +64,11 @@ def cool_down(actuator, sleep, above_ambient_C: float = 10.0, step_s: float = 0.
 
 
 def measure_tilts(actuator, grab, tracker, volts, *, settle_s: float, sleep, frames: int = 3,
-                  rest_frames: int = 5, progress=None) -> np.ndarray:
-    """(S, N) signed tilts (deg) of every whisker at each voltage step (all coils driven together)."""
+                  rest_frames: int = 5, progress=None, temperatures: list | None = None) -> np.ndarray:
+    """(S, N) signed tilts (deg) of every whisker at each voltage step (all coils driven together).
+
+    `temperatures`, if a list, receives the thermal guard's (N,) coil temperature estimate (C) at each
+    step: a warm coil draws less current, which `fit` can take into account."""
     from whisker.guard import volts_to_levels
     from whisker.wiring_check import rest_baseline, settled_results
 
@@ -78,6 +81,8 @@ def measure_tilts(actuator, grab, tracker, volts, *, settle_s: float, sleep, fra
         actuator.apply(want, f"stiffness {v:+.2f} V")
         sleep(settle_s)
         applied = actuator.tick()
+        if temperatures is not None and getattr(actuator, "guard", None) is not None:
+            temperatures.append(np.array(actuator.guard.temperatures, dtype=float))
         t = [signed_tilts_deg(tracker, r) for r in settled_results(tracker, grab, frames)]
         with np.errstate(all="ignore"):
             out[s] = np.nanmean(np.array(t), axis=0)
@@ -107,8 +112,11 @@ def _k_and_ssr(design, cur, theta):
     return k, float(np.sum((tau / k - theta) ** 2))
 
 
-def fit(design, volts, tilts_deg, fit_gap: bool = True) -> dict:
-    """Rotational stiffness (and the rest gap if the data fix it) from (S,) volts and (S, N) tilts."""
+def fit(design, volts, tilts_deg, fit_gap: bool = True, temperatures_C=None) -> dict:
+    """Rotational stiffness (and the rest gap if the data fix it) from (S,) volts and (S, N) tilts.
+
+    temperatures_C: (S, N) coil temperatures (C) at the steps (from `measure_tilts`); default 20 C,
+    the temperature at which the coil's resistance is given (and at which the simulator drives)."""
     from whisker.guard import coil_current_A
 
     v = np.asarray(volts, dtype=float)
@@ -125,12 +133,13 @@ def fit(design, volts, tilts_deg, fit_gap: bool = True) -> dict:
         raise StiffnessError(f"{int(wrong.sum())} of {int(ok.sum())} tilts have the opposite sign of their voltage "
                              "(reversed coils): run `whisker calibrate wiring` first")
     ok &= ~wrong
+    temp = np.broadcast_to(20.0 if temperatures_C is None else np.asarray(temperatures_C, dtype=float), th.shape)
     # a whisker at its hard stop (or snapped onto its magnet) is not in spring equilibrium
     stop = np.radians(design.whiskers.max_deflection_deg - STOP_MARGIN_DEG)
     ok &= np.abs(th) < stop
     if ok.sum() < 3:
         raise StiffnessError("fewer than 3 tilts below the hard stop; lower --max-volts")
-    cur = np.asarray(coil_current_A(design, vv[ok]), dtype=float)
+    cur = np.asarray(coil_current_A(design, vv[ok], temp[ok]), dtype=float)
     t = th[ok]
     gap0 = design.actuation.gap
     result = {"points": int(ok.sum()), "design_gap_mm": gap0, "design_stiffness_Nmm_per_rad":
@@ -167,7 +176,8 @@ def fit(design, volts, tilts_deg, fit_gap: bool = True) -> dict:
     per = []
     for w in range(th.shape[1]):
         m = ok[:, w]
-        per.append(_k_and_ssr(d, np.asarray(coil_current_A(design, vv[m, w])), th[m, w])[0] if m.sum() >= 2 else None)
+        per.append(_k_and_ssr(d, np.asarray(coil_current_A(design, vv[m, w], temp[m, w])), th[m, w])[0]
+                   if m.sum() >= 2 else None)
     result.update(rotational_stiffness_Nmm_per_rad=k, gap_mm=gap, gap_identified=bool(identified),
                   gap_best_mm=float(best), gap_interval_mm=[float(inside.min()), float(inside.max())],
                   rms_residual_deg=float(np.degrees(math.sqrt(s / len(t)))), per_whisker_Nmm_per_rad=per)
