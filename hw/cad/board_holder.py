@@ -30,6 +30,8 @@ def board_holder(d: Design) -> cq.Shape:
     # the paper's face, not the print's, lies on the marker plane
     pedestal = cylinder(d.neck_radius - c, d.marker_z + PAPER_MM, 0.0 + 1e-3)
     body = plate.fuse(pedestal).clean()
+    if d.neck_radius - c < PUSH_HOLE_MM:   # a small pedestal keeps its whole face for the board
+        return body
     return cut_all(body, [cylinder(PUSH_HOLE_MM / 2, d.marker_z - 1.0, d.membrane.thickness + 1.0)])
 
 
