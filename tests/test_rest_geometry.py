@@ -58,10 +58,10 @@ DATA = peer_data()
 
 @pytest.mark.skipif(DATA is None, reason="WHISKER_PEER_DATA is not set to the authors' data folder")
 def test_authors_rest_frame_agrees_with_the_design_file():
-    """hw/sensor.toml: image_up_deg 112.5, marker_diameter 1.4 mm (6.94 px), camera.distance 35.2 mm.
-    Measured on org.jpg (undistorted with their lens file): image_up 112.72 deg (+0.22), blob radius
-    7.01 px (+1.0 %), half-contrast edge radius 4.6 px (their dots have soft edges), ring 118.9 px ->
-    0.1009 mm/px (+0.05 %)."""
+    """hw/sensor.toml: image_up_deg 112.5, marker_diameter 1.4 mm (6.94 px at 0.1009 mm/px).
+    Measured on org.jpg (undistorted with their lens file): image_up 112.72 deg (+0.22 deg), blob
+    radius 7.01 px (+1 %), half-contrast edge radius 4.6 px (their dots have soft edges), ring 118.9 px
+    -> 0.1009 mm/px (within 0.1 % of the design's)."""
     import cv2
 
     img = DATA / "img"
