@@ -146,12 +146,18 @@ def test_blurred_and_partly_visible_boards_are_refused_with_a_reason():
         calibrate_views([], SIZE, [("frame 0", why)])
 
 
-def test_nothing_from_the_camera_is_an_environment_fault(tmp_path):
+def test_a_source_that_gives_nothing_is_refused_in_one_line(tmp_path):
     empty = tmp_path / "empty.avi"
     empty.write_bytes(b"")
     res = run_cli("calibrate", "camera", "--source", str(empty), "--out", str(tmp_path / "x.npz"), "-q")
-    assert res.returncode in (1, 2) and len(res.stderr.strip().splitlines()) == 1, res.stderr
-    assert not (tmp_path / "x.npz").exists()
+    assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1, res.stderr
+    assert "cannot open" in res.stderr and not (tmp_path / "x.npz").exists()
+    blank = tmp_path / "blank"
+    blank.mkdir()
+    for i in range(3):
+        (blank / f"{i}.png").write_bytes(b"")                 # frames that decode to nothing
+    res = run_cli("calibrate", "camera", "--source", str(blank), "--out", str(tmp_path / "x.npz"), "-q")
+    assert res.returncode == 2 and "no image" in res.stderr and len(res.stderr.strip().splitlines()) == 1
 
 
 def _pdf_streams(data: bytes) -> str:
