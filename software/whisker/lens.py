@@ -86,7 +86,7 @@ def load_lens(path) -> Lens:
     except Exception as err:  # zipfile/pickle errors: not an npz
         raise ValueError(f"calibration file {path} is not a readable .npz ({type(err).__name__})") from None
     try:
-        return Lens(mtx, dist, model, size if size and len(size) == 2 else None)
+        return Lens(mtx, dist, model, size if size and len(size) == 2 and min(size) > 0 else None)
     except ValueError as err:
         raise ValueError(f"calibration file {path}: {err}") from None
 
