@@ -11,7 +11,7 @@ import trimesh
 
 from whisker.design import Design
 
-from . import coupon, mold, mount, reference, ring
+from . import board_holder, coupon, mold, mount, reference, ring
 
 
 @dataclass(frozen=True)
@@ -33,6 +33,7 @@ PARTS: tuple[PartSpec, ...] = (
              flip_to_print=True),
     PartSpec("tolerance_coupon", coupon.tolerance_coupon, True,
              "print-tolerance coupon: rod holes and magnet pockets at print.coupon_clearances, labelled"),
+    PartSpec("board_holder", board_holder.board_holder, True, "lens calibration: holds a ChArUco patch at the marker plane", flip_to_print=True),
     PartSpec("membrane", reference.membrane, False, "cast Ecoflex membrane (reference, not printed)"),
     PartSpec("rod", reference.rod, False, "carbon-fibre whisker rod, whisker 0 (reference)"),
     PartSpec("coil", reference.coil, False, "disc coil, whisker 0 (reference)"),

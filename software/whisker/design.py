@@ -263,6 +263,10 @@ class Wiring(_Section):
     expander: Literal["none", "pca9685"] = Field(
         description="none: coils on Pi GPIO (2 per coil, <= 11 coils); pca9685: I2C PWM expander(s)")
     pca9685_address: int = Field(ge=0x40, le=0x6F, description="I2C address of the first PCA9685")
+    coil_order: tuple[int, ...] = Field((), description=(
+        "pin-map override (whisker calibrate wiring): coil_order[i] = pin-map channel driving whisker i; () = i"))
+    coil_polarity: tuple[int, ...] = Field((), description=(
+        "pin-map override: +1/-1 per whisker, -1 swaps that channel's forward/backward pins; () = all +1"))
 
 
 class Bom(_Section):
