@@ -2,7 +2,8 @@
 
 A command added later is walked without being listed here. Each invocation gives ONE hostile value
 to ONE parameter, the other parameters minimal and valid (BASE below; a command not in BASE gets
-generic fillers), in-process through click's CliRunner with a per-invocation time limit. Asserted
+generic fillers), through click's CliRunner in a worker process that is killed and replaced when an invocation
+runs past the time limit. Asserted
 for every invocation:
 
 - no Python traceback, no "internal error" (an unexpected exception reached the CLI's error path),
@@ -21,14 +22,12 @@ from __future__ import annotations
 
 import hashlib
 import os
-import signal
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import click
 import pytest
-from click.testing import CliRunner
 
 from test_dataset import synthetic
 from test_recording_plot import make_trial
@@ -42,10 +41,6 @@ NUMBER_TYPES = (click.types.FloatParamType, click.types.IntParamType)
 
 #: names of path parameters that are written, not read (generic: any name starting with "out")
 OUTPUT_NAMES = {"report", "record", "images", "print_report"}
-
-
-class Overtime(BaseException):
-    """The invocation ran past TIME_LIMIT_S (BaseException: the CLI's error path lets it through)."""
 
 
 @dataclass
@@ -238,28 +233,84 @@ def _given(param: click.Parameter, args: list[str]) -> bool:
     return any(a in param.opts for a in args)
 
 
-def _alarm(signum, frame):
-    raise Overtime()
+WORKER = r"""
+import json, os, sys
+os.environ.setdefault("MPLBACKEND", "Agg")
+from click.testing import CliRunner
+from whisker.cli import main
+for line in sys.stdin:
+    argv = json.loads(line)
+    res = CliRunner().invoke(main, argv, env={"WHISKER_DEBUG": ""}, catch_exceptions=True)
+    exc = res.exception
+    escaped = None if exc is None or isinstance(exc, SystemExit) else f"{type(exc).__name__}: {exc}"
+    sys.stdout.write(json.dumps({"code": res.exit_code, "output": res.output, "escaped": escaped}) + "\n")
+    sys.stdout.flush()
+"""
 
 
-def run_case(case: Case, w: Path, fresh: Path) -> Outcome:
+class Worker:
+    """A `whisker` process that runs invocations in turn; one that overruns is killed and replaced."""
+
+    def __init__(self, cwd: Path):
+        self.proc = None
+        self.cwd = cwd              # a scratch folder: a command defaulting to ./ must not write into the repo
+
+    def _start(self):
+        import subprocess
+        import sys
+
+        self.proc = subprocess.Popen([sys.executable, "-c", WORKER], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     stderr=subprocess.DEVNULL, text=True, cwd=self.cwd, start_new_session=True)
+
+    def run(self, argv: list[str]) -> dict | None:
+        """The invocation's result, or None when it ran past TIME_LIMIT_S."""
+        import json
+        import selectors
+
+        if self.proc is None or self.proc.poll() is not None:
+            self._start()
+        self.proc.stdin.write(json.dumps(argv) + "\n")
+        self.proc.stdin.flush()
+        sel = selectors.DefaultSelector()
+        sel.register(self.proc.stdout, selectors.EVENT_READ)
+        ready = sel.select(TIME_LIMIT_S + 30.0 * (self.first is None))  # the first call also imports
+        sel.close()
+        self.first = False
+        if not ready:
+            self.kill()
+            return None
+        line = self.proc.stdout.readline()
+        if not line:                       # the worker died (a crash is a failure too)
+            self.kill()
+            return {"code": None, "output": "", "escaped": "the worker process died"}
+        return json.loads(line)
+
+    first = None
+
+    def kill(self):
+        import signal as sig
+
+        if self.proc is not None:
+            try:
+                os.killpg(self.proc.pid, sig.SIGKILL)
+            except ProcessLookupError:
+                pass
+            self.proc.wait()
+            self.proc = None
+            self.first = None
+
+
+def run_case(case: Case, w: Path, fresh: Path, worker: Worker) -> Outcome:
     cmd = dict(leaf_commands())[case.command]
     argv = build_args(case, cmd, w, fresh)
-    runner = CliRunner()
-    old = signal.signal(signal.SIGALRM, _alarm)
-    signal.setitimer(signal.ITIMER_REAL, TIME_LIMIT_S)
     t0 = time.perf_counter()
-    try:
-        res = runner.invoke(main, argv, env={"MPLBACKEND": "Agg", "WHISKER_DEBUG": ""}, catch_exceptions=True)
-        code, text, exc = res.exit_code, res.output, res.exception
-    except Overtime:
-        code, text, exc = None, "", None
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
+    r = worker.run(argv)
+    timed_out = r is None
+    r = r or {"code": None, "output": "", "escaped": None}
+    code, text = r["code"], r["output"]
     o = Outcome(case, code, text, time.perf_counter() - t0)
-    if exc is not None and not isinstance(exc, SystemExit):
-        o.problems.append(f"exception escaped: {type(exc).__name__}: {exc}")
+    if r["escaped"]:
+        o.problems.append(f"exception escaped: {r['escaped']}")
     if "Traceback (most recent call last)" in text:
         o.problems.append("traceback printed")
     if any(is_internal(line) for line in text.splitlines()):
@@ -268,7 +319,7 @@ def run_case(case: Case, w: Path, fresh: Path) -> Outcome:
         o.problems.append("RuntimeWarning printed")
     if case.garbage and code == 0:
         o.problems.append("garbage accepted (exit 0)")
-    if case.garbage and code is None:
+    if case.garbage and timed_out:
         o.problems.append(f"garbage accepted (still running after {TIME_LIMIT_S:g} s)")
     return o
 
@@ -294,14 +345,21 @@ def test_hostile_walk(world, tmp_path):
     all_cases = cases(world, tmp_path)
     assert len(all_cases) > 100  # the budget still walks a real table
     outcomes, bad = [], []
-    for i, case in enumerate(all_cases):
-        fresh = tmp_path / f"c{i}"
-        fresh.mkdir()
-        cmd = dict(leaf_commands())[case.command]
-        o = run_case(case, world, fresh)
-        outcomes.append(o)
-        if o.problems:
-            bad.append(describe(o, build_args(case, cmd, world, fresh)))
+    scratch = tmp_path / "cwd"
+    scratch.mkdir()
+    worker = Worker(scratch)
+    try:
+        for i, case in enumerate(all_cases):
+            fresh = tmp_path / f"c{i}"
+            fresh.mkdir()
+            cmd = dict(leaf_commands())[case.command]
+            o = run_case(case, world, fresh, worker)
+            outcomes.append(o)
+            if o.problems:
+                bad.append(describe(o, build_args(case, cmd, world, fresh)))
+                print(bad[-1], flush=True)
+    finally:
+        worker.kill()
     report = os.environ.get("WHISKER_FUZZ_REPORT")
     if report:
         write_report(Path(report), outcomes)

@@ -9,6 +9,7 @@ path or value and what to do; exit status 2 for bad input, 1 for a fault of the 
 
 from __future__ import annotations
 
+import errno
 import importlib
 import pkgutil
 
@@ -41,7 +42,9 @@ class LazyGroup(click.Group):
     def get_command(self, ctx, name):
         if name not in self.list_commands(ctx):
             return None
-        return importlib.import_module(f"whisker.commands.{name}").cli
+        from whisker.cliutil import harden_numbers
+
+        return harden_numbers(importlib.import_module(f"whisker.commands.{name}").cli)
 
     def invoke(self, ctx):
         from whisker.errors import debug_requested, explain
@@ -54,6 +57,8 @@ class LazyGroup(click.Group):
         except Exception as err:
             if ctx.params.get("debug") or debug_requested():
                 raise
+            if isinstance(err, OSError) and err.errno == errno.EPIPE:
+                raise                    # the reader went away (| head): click exits quietly
             code, line = explain(err)
             click.echo(f"{_command_path(self, ctx, tokens)}: {line}", err=True)
             ctx.exit(code)

@@ -263,7 +263,10 @@ def read_table(path) -> dict[str, list[str]]:
 
 
 def _floats(values) -> np.ndarray:
-    return np.array([float(v) if v not in ("", None) else np.nan for v in values], dtype=float)
+    """Numbers of a CSV column; empty and non-finite cells become NaN (a ValueError names a bad cell)."""
+    out = np.array([float(v) if v not in ("", None) else np.nan for v in values], dtype=float)
+    out[~np.isfinite(out)] = np.nan
+    return out
 
 
 @dataclass
@@ -312,18 +315,33 @@ class Session:
 
 
 def load_session(folder) -> Session:
-    """Read a session folder, complete or cut short by a crash (see the module doc)."""
+    """Read a session folder, complete or cut short by a crash (see the module doc).
+
+    A table that is not a session's (wrong columns, cells that are not numbers) raises
+    RecordingError naming the file; rows torn by a crash are dropped silently.
+    """
     folder = Path(folder)
     meta_path = folder / "metadata.json"
-    if not meta_path.exists():
+    if not meta_path.is_file():
         raise RecordingError(f"{folder} is not a recording session (no metadata.json)")
     try:
-        meta = json.loads(meta_path.read_text())
+        meta = json.loads(meta_path.read_text(encoding="utf-8"))
     except ValueError as err:
-        raise RecordingError(f"{meta_path}: unreadable metadata ({err})") from err
-    if meta.get("format") != FORMAT:
-        raise RecordingError(f"{folder}: unknown session format {meta.get('format')!r} (expected {FORMAT})")
-    n = int(meta["whiskers"])
+        raise RecordingError(f"{meta_path}: unreadable metadata ({' '.join(str(err).split())})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        got = meta.get("format") if isinstance(meta, dict) else type(meta).__name__
+        raise RecordingError(f"{folder}: unknown session format {got!r} (expected {FORMAT})")
+    n = meta.get("whiskers")
+    if not isinstance(n, int) or not 1 <= n <= 64:
+        raise RecordingError(f"{meta_path}: 'whiskers' must be a count 1..64 (got {n!r})")
+    try:
+        return _read_session(folder, meta, n)
+    except (ValueError, TypeError, IndexError) as err:
+        raise RecordingError(f"{folder}: a table is not a session's ({' '.join(str(err).split())}); "
+                             "check frames.csv, tracks.csv and actuation.csv") from None
+
+
+def _read_session(folder: Path, meta: dict, n: int) -> Session:
     fr = read_table(folder / "frames.csv")
     idx = np.array([int(v) for v in fr.get("frame", [])], dtype=int)
     t = _floats(fr.get("time_s", []))

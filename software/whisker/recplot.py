@@ -62,14 +62,36 @@ def _interp_valid(t_grid, t, y, max_gap_s):
     return out
 
 
-def align_time(session: Session, align: str = "retract") -> float:
-    """The alignment instant of a session, s: its first `align` command, else its first frame."""
+#: --align value that aligns every trial on its first frame instead of an actuation command
+ALIGN_FIRST_FRAME = "frame"
+
+
+def align_time(session: Session, align: str = "retract") -> float | None:
+    """The alignment instant of a session, s: its first `align` command (None when it has none), or
+    its first frame for align = "frame"."""
+    if align == ALIGN_FIRST_FRAME:
+        if len(session.frame_time_s) == 0:
+            raise ValueError(f"session {session.folder} has no frames")
+        return float(session.frame_time_s[0])
     for t, p in session.phase_times():
-        if p == align:
+        if p == align and np.isfinite(t):
             return float(t)
-    if len(session.frame_time_s) == 0:
-        raise ValueError(f"session {session.folder} has no frames")
-    return float(session.frame_time_s[0])
+    return None
+
+
+def _check_align(sessions: Sequence[Session], align: str) -> None:
+    """Refuse an alignment that is unknown, or that some trials cannot follow (naming them)."""
+    if align == ALIGN_FIRST_FRAME:
+        return
+    seen = sorted({p for s in sessions for _, p in s.phase_times()})
+    if align not in PHASE_MARKS and align not in seen:
+        raise ValueError(f"unknown --align {align!r}: use {ALIGN_FIRST_FRAME!r} (first frame) or an actuation "
+                         f"phase ({', '.join(sorted(set(PHASE_MARKS) | set(seen)))})")
+    missing = [str(s.folder) for s in sessions if align_time(s, align) is None]
+    if missing:
+        raise ValueError(f"no {align!r} command to align on in {len(missing)} trial(s): {', '.join(missing)} "
+                         "(empty or unreadable actuation.csv?); record them with actuation, or give "
+                         f"--align {ALIGN_FIRST_FRAME} to align every trial on its first frame")
 
 
 def fig8_data(sessions: Sequence[Session], *, quantity: str = "px", align: str = "retract",
@@ -93,6 +115,7 @@ def fig8_data(sessions: Sequence[Session], *, quantity: str = "px", align: str =
         if not s.tracks:
             raise ValueError(f"session {s.folder} has no tracks (recorded with --no-track?): "
                              "track it first or record with tracking")
+    _check_align(sessions, align)
     series, phases = [], {}
     intervals = []
     for s in sessions:
@@ -122,6 +145,9 @@ def fig8_data(sessions: Sequence[Session], *, quantity: str = "px", align: str =
         for w in range(n):
             stack[k, :, w] = _interp_valid(grid, t, d[:, w], max_gap_s)
     count = np.sum(np.isfinite(stack), axis=0)
+    if not count.any():
+        raise ValueError(f"no valid point: every {quantity} value of the {len(sessions)} trial(s) is invalid, NaN "
+                         "or infinite (markers lost?); check the tracks (whisker track) before plotting")
     with np.errstate(all="ignore"):
         import warnings
 

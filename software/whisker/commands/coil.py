@@ -21,8 +21,14 @@ _SHORTCUTS = {
 
 
 def coil_options(f):
-    """Design options plus coil shortcuts (--wire, --turns, --fill ...) applied as overrides."""
-    @design_options
+    """Design options plus coil shortcuts (--wire, --turns, --fill ...) applied as overrides.
+
+    The shortcuts become ``--set`` overrides on the same loading path as every other command
+    (whisker.cliutil.design_options -> load_design), so `coil report --wire X` and
+    `design show --set coil.wire_diameter=X` accept and refuse exactly the same values.
+    """
+    inner = design_options(_turns_max(f))
+
     @click.option("--wire", type=float, help="Bare wire diameter, mm (coil.wire_diameter).")
     @click.option("--enamel-grade", type=click.IntRange(1, 3), help="IEC 60317 enamel grade 1-3 (winding.enamel_grade).")
     @click.option("--inner", type=float, help="Coil bore diameter, mm (coil.inner_diameter).")
@@ -36,25 +42,32 @@ def coil_options(f):
                   help="H-bridge (driver.type).")
     @click.option("--gap", type=float, help="Coil-magnet gap at rest, mm (actuation.gap).")
     @click.option("--stiffness", type=float, help="Membrane rotational stiffness, N*mm/rad.")
-    @functools.wraps(f)
-    def wrapper(*args, design, turns=None, **kwargs):
-        from whisker.design import DesignError, apply_overrides, design_from_dict
-
-        over = []
+    @functools.wraps(inner)
+    def wrapper(*args, overrides=(), turns=None, **kwargs):
+        over = list(overrides)
         for key, param in _SHORTCUTS.items():
             v = kwargs.pop(key, None)
             if v is not None:
-                over.append(f"{param}={v!r}" if isinstance(v, str) else f"{param}={v}")
-        try:
-            if over:
-                design = design_from_dict(apply_overrides(design.to_dict(), over))
-            if turns is not None:
-                if turns == "max":
-                    from whisker.coil import winding
-                    turns = winding(design).max_turns_at_fill
-                design = design_from_dict(apply_overrides(design.to_dict(), [f"coil.turns={turns}"]))
-        except DesignError as err:
-            fail(f"design refused: {err}")
+                over.append(f"{param}={v!r}" if isinstance(v, str) else f"{param}={v!r}")
+        if turns is not None and turns != "max":
+            over.append(f"coil.turns={turns}")
+        return inner(*args, overrides=tuple(over), turns_max=turns == "max", **kwargs)
+    return wrapper
+
+
+def _turns_max(f):
+    """--turns max: as many turns as fit at the (validated) design's fill factor."""
+    @functools.wraps(f)
+    def wrapper(*args, design, turns_max=False, **kwargs):
+        if turns_max:
+            from whisker.coil import winding
+            from whisker.design import DesignError, apply_overrides, design_from_dict
+
+            try:
+                design = design_from_dict(apply_overrides(design.to_dict(), [
+                    f"coil.turns={winding(design).max_turns_at_fill}"]))
+            except DesignError as err:
+                fail(f"design refused: {err}")
         return f(*args, design=design, **kwargs)
     return wrapper
 
