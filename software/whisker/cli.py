@@ -49,7 +49,8 @@ class LazyGroup(click.Group):
     def invoke(self, ctx):
         from whisker.errors import debug_requested, explain
 
-        tokens = [*ctx.protected_args, *ctx.args]
+        protected = ctx.__dict__.get("_protected_args", ctx.__dict__.get("protected_args", []))
+        tokens = [*protected, *ctx.args]
         try:
             return super().invoke(ctx)
         except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort):

@@ -84,6 +84,12 @@ class NonEmptyPath(click.ParamType):
     def convert(self, value, param, ctx):
         if isinstance(value, str) and not value.strip():
             self.fail("empty path: give a file or folder name", param, ctx)
+        if isinstance(value, str):
+            try:
+                value.encode("utf-8")
+            except UnicodeEncodeError:
+                self.fail(f"{value!r} is not a UTF-8 name; rename it (the CAD, image and plot libraries "
+                          "need UTF-8 paths)", param, ctx)
         return self.inner.convert(value, param, ctx)
 
     def get_metavar(self, param, ctx=None):

@@ -11,6 +11,11 @@ import click
 
 from whisker.cliutil import design_options, fail
 
+#: most rows `coil thermal` prints (one per --step)
+MAX_THERMAL_ROWS = 100_000
+#: mm, the largest gap `coil force` tabulates: beyond it the force is nil and the models' series overflow
+MAX_GAP_MM = 1000.0
+
 # shortcut option -> design parameter
 _SHORTCUTS = {
     "wire": "coil.wire_diameter", "enamel_grade": "winding.enamel_grade", "inner": "coil.inner_diameter",
@@ -138,6 +143,8 @@ def force(design, models, gaps, volts):
         g = np.array([float(x) for x in gaps.split(",") if x.strip()])
     except ValueError:
         fail(f"--gaps: not a comma-separated list of numbers: {gaps!r}")
+    if g.size == 0 or not np.all((g > 0) & (g <= MAX_GAP_MM)):
+        fail(f"--gaps: every gap must be in (0, {MAX_GAP_MM:g}] mm (got {gaps!r})")
     models = models or ("table",)
     cur = current_A(design, volts) if volts is not None else None
     head = "gap_mm " + " ".join(f"{m + '_mN/A':>16s}" for m in models)
@@ -213,6 +220,11 @@ def thermal(design, volts, duty, seconds, step, convection):
     th = CoilThermal(design, convection=convection)
     s = {"limit": th.limit_name, "limit_C": th.limit_C, "safe_duty": th.safe_duty(v)}
     t_end = seconds or 4.0 * th.time_constant_s
+    if not step > 0 or t_end < 0:
+        fail(f"--step must be > 0 s and --seconds >= 0 (got step {step:g}, seconds {t_end:g})")
+    if t_end / step > MAX_THERMAL_ROWS:
+        fail(f"--seconds {t_end:g} / --step {step:g} is {t_end / step:.3g} rows, over {MAX_THERMAL_ROWS}; "
+             "give a larger --step")
     click.echo(f"{v:g} V, duty {duty:g}: steady state {th.steady_state_C(v, duty):.0f} C; first limit "
                f"{s['limit']} {s['limit_C']:g} C after {th.time_to_C(th.limit_C, v, duty):.3g} s; "
                f"safe duty {s['safe_duty'] * 100:.1f} %")

@@ -24,7 +24,7 @@ import os
 
 import numpy as np
 
-from whisker.sim.scene import MAX_DISTANCE_MM, SceneError
+from whisker.sim.scene import SceneError
 
 #: default limits of one run; environment variables raise them
 MAX_STEPS = 20_000_000
@@ -34,6 +34,10 @@ MAX_BYTES = 2 * 1024 ** 3
 _BYTES_PER_STEP_BASE = 8 * (1 + 4)
 #: m of penetration at t = 0 counted as an overlap (MuJoCo's resting contacts sit at ~0)
 OVERLAP_TOL_M = 1e-4
+#: mm an object may end from where it started before it counts as thrown out of the scene (the
+#: sensor reaches ~50 mm; the MuJoCo table is 2 m across), and how far below the table top is "through it"
+LEFT_SCENE_MM = 500.0
+THROUGH_TABLE_MM = 10.0
 #: a run whose total energy grows by more than this fraction (and 1 mJ) without input is flagged
 ENERGY_RISE_TOL = (1e-3, 0.05)
 
@@ -162,9 +166,10 @@ def run_flags(scene, result) -> list[str]:
             flags.append(f"scene energy rose from {e0:.3g} J to {peak:.3g} J without input")
     objs = getattr(result, "objects_mm", None)
     if objs is not None and len(objs):
-        last = np.asarray(objs)[-1]
-        for name, p in zip(result.object_names, last):
-            if not np.all(np.isfinite(p)) or math.hypot(p[0], p[1]) > MAX_DISTANCE_MM or (
-                    scene.table.enabled and p[2] < -10.0) or abs(p[2]) > MAX_DISTANCE_MM:
-                flags.append(f"object {name!r} left the scene (ended at {np.round(p, 1).tolist()} mm)")
+        first, last = np.asarray(objs)[0], np.asarray(objs)[-1]
+        for name, p0, p in zip(result.object_names, first, last):
+            gone = not np.all(np.isfinite(p)) or float(np.linalg.norm(p - p0)) > LEFT_SCENE_MM
+            if gone or (scene.table.enabled and p[2] < -THROUGH_TABLE_MM):
+                flags.append(f"object {name!r} left the scene (from {np.round(p0, 1).tolist()} to "
+                             f"{np.round(p, 1).tolist()} mm)")
     return flags
