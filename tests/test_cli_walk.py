@@ -13,9 +13,9 @@ for every invocation:
   limit (the command accepted it and started working);
 - every failure's own message is one line on stderr.
 
-Budget: WHISKER_WALK_BUDGET = the fraction of the (parameter, value) pairs run (default 0.35 in the
-test suite: every parameter, and every value class, is covered across parameters; `make fuzz` runs
-1.0). The counts go to benchmarks/results/fuzz_walk.md when WHISKER_FUZZ_REPORT is set.
+Budget: in the test suite each command gets WHISKER_WALK_COMMAND_S (3 s) of cases, garbage first, in
+a fixed pseudo-random order, at most 10 s per invocation; WHISKER_WALK_BUDGET=full (`make fuzz`) runs
+every case with 60 s each and writes benchmarks/results/fuzz_walk.md (WHISKER_FUZZ_REPORT).
 """
 
 from __future__ import annotations
@@ -35,8 +35,11 @@ from whisker.cli import main
 from whisker.errors import is_internal
 
 ROOT = Path(__file__).resolve().parents[1]
-BUDGET = float(os.environ.get("WHISKER_WALK_BUDGET", "0.35"))
-TIME_LIMIT_S = float(os.environ.get("WHISKER_WALK_TIME_LIMIT_S", "20"))
+#: "full" (make fuzz): every (parameter, value) pair, 60 s per invocation. Otherwise (the test suite)
+#: each command gets COMMAND_S seconds of cases, garbage first, in a fixed pseudo-random order.
+FULL = os.environ.get("WHISKER_WALK_BUDGET", "ci") == "full"
+TIME_LIMIT_S = float(os.environ.get("WHISKER_WALK_TIME_LIMIT_S", "60" if FULL else "10"))
+COMMAND_S = float(os.environ.get("WHISKER_WALK_COMMAND_S", "3"))
 NUMBER_TYPES = (click.types.FloatParamType, click.types.IntParamType)
 
 #: names of path parameters that are written, not read (generic: any name starting with "out")
@@ -173,26 +176,24 @@ def hostile_values(param: click.Parameter, w: Path, fresh: Path) -> list[tuple[s
             ("non-UTF-8", os.fsdecode(b"\xff\xfe\x81"), False), ("a folder", str(w / "a_dir"), False)]
 
 
-def in_budget(key: str) -> bool:
-    if BUDGET >= 1.0:
-        return True
-    h = int(hashlib.sha256(key.encode()).hexdigest()[:8], 16) / 0xFFFFFFFF
-    return h < BUDGET
+def _rank(key: str) -> int:
+    return int(hashlib.sha256(key.encode()).hexdigest()[:8], 16)
 
 
-def cases(w: Path, fresh_dir) -> list[Case]:
-    out = []
+def cases(w: Path) -> dict[tuple[str, ...], list[Case]]:
+    """Per command: its cases, garbage first, each group in a fixed pseudo-random order."""
+    out = {}
     for path, cmd in leaf_commands():
+        mine = []
         for param in cmd.params:
             if isinstance(param, click.Option) and (param.is_flag or param.count or param.hidden):
                 continue
             if param.name in ("help",):
                 continue
             for label, value, garbage in hostile_values(param, w, Path("/FRESH")):
-                key = f"{' '.join(path)}|{param.name}|{label}"
-                if not in_budget(key):
-                    continue
-                out.append(Case(path, param.name, label, [value], garbage))
+                mine.append(Case(path, param.name, label, [value], garbage))
+        mine.sort(key=lambda c: (not c.garbage, _rank(f"{' '.join(c.command)}|{c.param}|{c.label}")))
+        out[path] = mine
     return out
 
 
@@ -342,31 +343,40 @@ def test_the_walk_finds_every_command():
 
 def test_hostile_walk(world, tmp_path):
     """0 tracebacks, 0 internal errors, 0 exit-0 on garbage over the walked (command, option, value) table."""
-    all_cases = cases(world, tmp_path)
-    assert len(all_cases) > 100  # the budget still walks a real table
+    table = cases(world)
+    assert sum(map(len, table.values())) > 1000  # every option of every command has its hostile values
     outcomes, bad = [], []
     scratch = tmp_path / "cwd"
     scratch.mkdir()
     worker = Worker(scratch)
+    i = 0
     try:
-        for i, case in enumerate(all_cases):
-            fresh = tmp_path / f"c{i}"
-            fresh.mkdir()
-            cmd = dict(leaf_commands())[case.command]
-            o = run_case(case, world, fresh, worker)
-            outcomes.append(o)
-            if o.problems:
-                bad.append(describe(o, build_args(case, cmd, world, fresh)))
-                print(bad[-1], flush=True)
+        for path, mine in table.items():
+            t0 = time.perf_counter()
+            for case in mine:
+                if not FULL and time.perf_counter() - t0 > COMMAND_S:
+                    break
+                i += 1
+                fresh = tmp_path / f"c{i}"
+                fresh.mkdir()
+                cmd = dict(leaf_commands())[case.command]
+                o = run_case(case, world, fresh, worker)
+                outcomes.append(o)
+                if o.problems:
+                    bad.append(describe(o, build_args(case, cmd, world, fresh)))
+                    print(bad[-1], flush=True)
     finally:
         worker.kill()
     report = os.environ.get("WHISKER_FUZZ_REPORT")
     if report:
-        write_report(Path(report), outcomes)
+        write_report(Path(report), outcomes, table)
+    walked = {o.case.command for o in outcomes}
+    assert walked == set(table)                       # every command was walked
+    assert sum(o.case.garbage for o in outcomes) >= len(table)
     assert not bad, f"{len(bad)} of {len(outcomes)} hostile invocations misbehaved:\n" + "\n".join(bad)
 
 
-def write_report(path: Path, outcomes: list[Outcome]) -> None:
+def write_report(path: Path, outcomes: list[Outcome], table) -> None:
     from collections import Counter
 
     from whisker.files import atomic_write_text
@@ -374,11 +384,14 @@ def write_report(path: Path, outcomes: list[Outcome]) -> None:
     by_cmd = Counter(" ".join(o.case.command) for o in outcomes)
     codes = Counter(o.code for o in outcomes)
     slow = sorted(outcomes, key=lambda o: -o.seconds)[:5]
-    lines = [f"# CLI walk: {len(outcomes)} hostile invocations (budget {BUDGET:g})", "",
+    lines = [f"# CLI walk: {len(outcomes)} of {sum(map(len, table.values()))} hostile invocations "
+             f"({'full' if FULL else f'{COMMAND_S:g} s per command'}; limit {TIME_LIMIT_S:g} s each)", "",
+             "Written by `make fuzz` (tests/test_cli_walk.py).", "",
              f"exit status: " + ", ".join(f"{k}: {v}" for k, v in sorted(codes.items(), key=str)),
              f"problems: {sum(bool(o.problems) for o in outcomes)}", "",
-             "| command | invocations |", "|---|---|"]
-    lines += [f"| {c} | {n} |" for c, n in sorted(by_cmd.items())]
+             "| command | invocations | of | problems |", "|---|---|---|---|"]
+    probs = Counter(" ".join(o.case.command) for o in outcomes if o.problems)
+    lines += [f"| {c} | {by_cmd[c]} | {len(table[tuple(c.split())])} | {probs[c]} |" for c in sorted(by_cmd)]
     lines += ["", "slowest:", ""] + [f"- {' '.join(o.case.command)} {o.case.param} [{o.case.label}]: "
                                       f"{o.seconds:.2f} s" for o in slow]
     atomic_write_text(path, "\n".join(lines) + "\n")
