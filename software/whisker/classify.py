@@ -273,46 +273,79 @@ def versions() -> dict:
             "joblib": joblib.__version__, "whisker": getattr(whisker, "__version__", "unknown")}
 
 
+MODEL_MAGIC = b"WHISKER-CLASSIFY-MODEL"
+
+
 def save_model(path, model, ds: WhiskerDataset, info: dict) -> Path:
-    """joblib file: {'model', 'classes', 'n_records', 'n_whiskers', 'sense', 'versions', ...}, atomic."""
+    """Model file: a header line (magic, format, SHA-256 of the rest) then a joblib dict {'model',
+    'classes', 'n_records', 'n_whiskers', 'sense', 'feature_layout', 'versions', ...}; atomic."""
+    bundle = {"format": MODEL_FORMAT, "model": model, "classes": [str(c) for c in model.classes_],
+              "n_records": ds.n_records, "n_whiskers": ds.n_whiskers, "sense": ds.sense,
+              "feature_layout": FEATURE_LAYOUT, "versions": versions(), **info}
+    return write_bundle(path, bundle)
+
+
+def write_bundle(path, bundle: dict) -> Path:
+    """Write a model dict with its header line (see save_model), atomically."""
+    import hashlib
+
     import joblib
 
     from whisker.files import atomic_write_bytes
 
-    bundle = {"format": MODEL_FORMAT, "model": model, "classes": [str(c) for c in model.classes_],
-              "n_records": ds.n_records, "n_whiskers": ds.n_whiskers, "sense": ds.sense,
-              "feature_layout": FEATURE_LAYOUT, "versions": versions(), **info}
     buf = io.BytesIO()
     joblib.dump(bundle, buf)
-    return atomic_write_bytes(path, buf.getvalue())
+    payload = buf.getvalue()
+    head = MODEL_MAGIC + f" {MODEL_FORMAT} sha256={hashlib.sha256(payload).hexdigest()}\n".encode()
+    return atomic_write_bytes(path, head + payload)
 
 
-def load_model(path) -> dict:
-    """Load a model file; warns (naming both) when the library versions differ from training."""
+def read_bundle(path) -> dict:
+    """The model dict of a file written by write_bundle. The header is checked before anything is
+    unpickled: a file that is not ours, or one changed since it was written, is refused."""
+    import hashlib
+
     import joblib
 
     path = Path(path)
     if not path.is_file():
         raise DatasetError(f"{path}: no such model file")
+    raw = path.read_bytes()
+    head, nl, payload = raw.partition(b"\n")
+    parts = head.split(b" ")
+    if not nl or len(parts) != 3 or parts[0] != MODEL_MAGIC or not parts[2].startswith(b"sha256="):
+        raise DatasetError(f"{path}: not a whisker classify model (no model header); train one with "
+                           "`whisker classify train`")
+    if parts[1] != str(MODEL_FORMAT).encode():
+        raise DatasetError(f"{path}: model file format {parts[1].decode(errors='replace')!r}, this version reads "
+                           f"{MODEL_FORMAT}; retrain it with `whisker classify train`")
+    if hashlib.sha256(payload).hexdigest().encode() != parts[2][len(b"sha256="):]:
+        raise DatasetError(f"{path}: damaged whisker classify model (its checksum does not match: truncated or "
+                           "changed since it was written); retrain it or restore a copy")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # our own, clearer message follows
-            bundle = joblib.load(path)
-    except (MemoryError, RecursionError):
-        raise DatasetError(f"{path}: not a whisker classify model (unreadable)") from None
-    except Exception as err:  # truncated, empty or foreign files raise many types (EOFError, UnpicklingError ...)
-        raise DatasetError(f"{path}: not a whisker classify model ({type(err).__name__}: "
-                           f"{' '.join(str(err).split())[:120]}); train one with `whisker classify train`") from None
-    if not isinstance(bundle, dict) or "format" not in bundle:
+            return joblib.load(io.BytesIO(payload))
+    except Exception as err:  # written by us but unreadable here (e.g. another library version)
+        raise DatasetError(f"{path}: cannot read this whisker classify model ({type(err).__name__}: "
+                           f"{' '.join(str(err).split())[:120]}); retrain it") from None
+
+
+def load_model(path) -> dict:
+    """Load a model file (header, checksum, fields and a trial prediction checked); warns (naming
+    both) when the library versions differ from training."""
+    bundle = read_bundle(path)
+    if not isinstance(bundle, dict) or bundle.get("format") != MODEL_FORMAT:
         raise DatasetError(f"{path}: not a whisker classify model (format {MODEL_FORMAT})")
-    if bundle.get("format") != MODEL_FORMAT:
-        raise DatasetError(f"{path}: model file format {bundle.get('format')!r}, this version reads {MODEL_FORMAT}; "
-                           "retrain it with `whisker classify train`")
     bad = [k for k, t in _BUNDLE_KEYS.items() if not isinstance(bundle.get(k), t)]
     if bad or bundle["feature_layout"] != FEATURE_LAYOUT or not hasattr(bundle["model"], "predict_proba") \
             or not 1 <= bundle["n_whiskers"] <= 64 or not 1 <= bundle["n_records"] <= 10000:
         raise DatasetError(f"{path}: damaged whisker classify model (fields {bad or 'feature layout/sizes'}); "
                            "retrain it with `whisker classify train`")
+    try:
+        bundle["model"].predict_proba(np.zeros((1, bundle["n_records"] * bundle["n_whiskers"] * 2)))
+    except Exception as err:
+        raise DatasetError(f"{path}: the model in it does not predict ({type(err).__name__}); retrain it") from None
     now = versions()
     diff = {k: (v, now.get(k)) for k, v in bundle["versions"].items()
             if k in ("scikit-learn", "numpy") and now.get(k) != v}

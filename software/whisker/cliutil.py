@@ -103,8 +103,8 @@ class NonEmptyPath(click.ParamType):
 
 
 def harden_numbers(cmd: click.Command) -> click.Command:
-    """Give every float parameter of `cmd` (and its subcommands) the FiniteFloat check, and every
-    path parameter the NonEmptyPath check, once.
+    """Give every float parameter of `cmd` (and its subcommands) the FiniteFloat check, every path
+    parameter the NonEmptyPath check and every text parameter the Utf8Text check, once.
 
     Called by the top-level group on every command it loads, so a command added later gets it too.
     """
@@ -116,7 +116,28 @@ def harden_numbers(cmd: click.Command) -> click.Command:
             p.type = FiniteFloat(p.type)
         elif isinstance(p.type, click.Path):
             p.type = NonEmptyPath(p.type)
+        elif type(p.type) is click.types.StringParamType:
+            p.type = Utf8Text(p.type)
     if isinstance(cmd, click.Group):
         for sub in cmd.commands.values():
             harden_numbers(sub)
     return cmd
+
+
+class Utf8Text(click.ParamType):
+    """Text that is valid UTF-8 (a shell passes undecodable bytes as lone surrogates, which no plot,
+    CSV or JSON writer accepts)."""
+
+    name = "text"
+
+    def __init__(self, inner: click.ParamType):
+        self.inner = inner
+
+    def convert(self, value, param, ctx):
+        v = self.inner.convert(value, param, ctx)
+        if isinstance(v, str):
+            try:
+                v.encode("utf-8")
+            except UnicodeEncodeError:
+                self.fail(f"{v!r} is not valid UTF-8 text", param, ctx)
+        return v

@@ -336,7 +336,7 @@ def load_session(folder) -> Session:
         raise RecordingError(f"{meta_path}: 'whiskers' must be a count 1..64 (got {n!r})")
     try:
         return _read_session(folder, meta, n)
-    except (ValueError, TypeError, IndexError) as err:
+    except (ValueError, TypeError, IndexError, KeyError, OverflowError) as err:
         raise RecordingError(f"{folder}: a table is not a session's ({' '.join(str(err).split())}); "
                              "check frames.csv, tracks.csv and actuation.csv") from None
 

@@ -23,6 +23,8 @@ import numpy as np
 
 from whisker.recording import Session, load_session
 
+#: most points of the common time grid (a day at 10 ms)
+MAX_GRID_POINTS = 10_000_000
 #: The paper's phase markers: actuation phase name -> label on the plot.
 PHASE_MARKS = {"retract": "(1) retract", "hold": "(2) arm up", "release": "(3) release"}
 UNITS = {"px": "marker displacement (px)", "mm": "tip displacement (mm)", "deg": "tilt theta (deg)"}
@@ -136,9 +138,11 @@ def fig8_data(sessions: Sequence[Session], *, quantity: str = "px", align: str =
     max_gap_s = 3.0 * dt_s if max_gap_s is None else float(max_gap_s)
     t_min = min(float(np.min(t)) for t, _ in series if len(t))
     t_max = max(float(np.max(t)) for t, _ in series if len(t))
-    steps = int(np.floor((t_max - t_min) / dt_s + 1e-9)) + 1
-    if steps > 1_000_000:
-        raise ValueError(f"fig8: {steps} grid points (dt_s={dt_s:g} s over {t_max - t_min:g} s); give a larger dt_s")
+    span = (t_max - t_min) / dt_s
+    if not span < MAX_GRID_POINTS:
+        raise ValueError(f"fig8: {span:.3g} grid points (dt_s={dt_s:g} s over {t_max - t_min:g} s), over "
+                         f"{MAX_GRID_POINTS:,}; give a larger --dt")
+    steps = int(np.floor(span + 1e-9)) + 1
     grid = t_min + dt_s * np.arange(steps)
     stack = np.full((len(series), steps, n), np.nan)
     for k, (t, d) in enumerate(series):
