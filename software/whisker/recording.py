@@ -341,15 +341,33 @@ def load_session(folder) -> Session:
                              "check frames.csv, tracks.csv and actuation.csv") from None
 
 
+#: columns a session's frame and track tables must have (when the table has a header at all); an
+#: unreadable actuation table counts as no actuation
+REQUIRED_COLUMNS = {
+    "frames.csv": ("frame", "time_s", "file"),
+    "tracks.csv": ("frame", "whisker", "dx_px", "dy_px", "valid", "theta_deg", "tip_x_mm", "tip_y_mm"),
+}
+
+
+def _table(folder: Path, name: str) -> dict[str, list[str]]:
+    """read_table, refusing a table whose header lacks a column the session needs."""
+    tab = read_table(folder / name)
+    missing = [c for c in REQUIRED_COLUMNS.get(name, ()) if tab and c not in tab]
+    if missing:
+        raise RecordingError(f"{folder / name}: missing column(s) {', '.join(missing)}; not a session table "
+                             "written by whisker record")
+    return tab
+
+
 def _read_session(folder: Path, meta: dict, n: int) -> Session:
-    fr = read_table(folder / "frames.csv")
+    fr = _table(folder, "frames.csv")
     idx = np.array([int(v) for v in fr.get("frame", [])], dtype=int)
     t = _floats(fr.get("time_s", []))
     files = list(fr.get("file", []))
     keep = np.array([(not f) or (folder / "frames" / f).exists() for f in files], dtype=bool)
     idx, t, files = idx[keep], t[keep], [f for f, k in zip(files, keep) if k]
 
-    tr = read_table(folder / "tracks.csv")
+    tr = _table(folder, "tracks.csv")
     tracks = {}
     if tr and tr.get("frame"):
         tf = np.array([int(v) for v in tr["frame"]], dtype=int)
@@ -365,6 +383,8 @@ def _read_session(folder: Path, meta: dict, n: int) -> Session:
                     arr[pos[f], w] = v
             tracks[col] = arr
     ac = read_table(folder / "actuation.csv")
+    if "time_s" not in ac or "phase" not in ac:
+        ac = {}           # unreadable: no actuation to align on (recplot names the trial)
     at = _floats(ac.get("time_s", []))
     req = np.array([_floats(ac.get(f"requested_{i}", [])) for i in range(n)]).T.reshape(len(at), n)
     app = np.array([_floats(ac.get(f"applied_{i}", [])) for i in range(n)]).T.reshape(len(at), n)
