@@ -235,7 +235,7 @@ def test_model_carries_version_and_layout(model):
 @pytest.mark.parametrize("option, value", [("--duration", "nan"), ("--fps", "nan"), ("--duration", "inf"),
                                            ("--duration", "0")])
 def test_record_refuses_nan_durations_and_rates(tmp_path, option, value):
-    code, _, err = run("record", "--source", "sim", "--backend", "sim", "--out", tmp_path / "s", option, value)
+    code, _, err = run("record", "--source", "synthetic:3", "--rest-frames", "1", "--out", tmp_path / "s", option, value)
     assert code == 2 and option in one_line(err)
     assert not (tmp_path / "s").exists()
 
