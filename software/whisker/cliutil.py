@@ -44,12 +44,28 @@ def fail(message: str, code: int = 2) -> None:
 MAX_MAGNITUDE = 1e6
 
 
-class FiniteFloat(click.ParamType):
-    """A float option that refuses NaN and +-inf, and magnitudes beyond its range (default +-MAX_MAGNITUDE)."""
+class _Checked(click.ParamType):
+    """A parameter type that converts with `inner` (its own type) and then checks the value."""
 
     def __init__(self, inner: click.ParamType):
         self.inner = inner
         self.name = inner.name
+
+    def get_metavar(self, param, ctx=None):
+        try:
+            return self.inner.get_metavar(param, ctx)
+        except TypeError:  # click < 8.2
+            return self.inner.get_metavar(param)
+
+    def shell_complete(self, ctx, param, incomplete):
+        return self.inner.shell_complete(ctx, param, incomplete)
+
+    def __repr__(self):
+        return f"{type(self).__name__}({self.inner!r})"
+
+
+class FiniteFloat(_Checked):
+    """A float option that refuses NaN and +-inf, and magnitudes beyond its range (default +-MAX_MAGNITUDE)."""
 
     def convert(self, value, param, ctx):
         v = self.inner.convert(value, param, ctx)
@@ -64,22 +80,10 @@ class FiniteFloat(click.ParamType):
                       param, ctx)
         return v
 
-    def get_metavar(self, param, ctx=None):
-        try:
-            return self.inner.get_metavar(param, ctx)
-        except TypeError:  # click < 8.2
-            return self.inner.get_metavar(param)
 
-    def __repr__(self):
-        return f"FiniteFloat({self.inner!r})"
-
-
-class NonEmptyPath(click.ParamType):
-    """A click.Path that refuses an empty name (which would mean the current folder)."""
-
-    def __init__(self, inner: click.Path):
-        self.inner = inner
-        self.name = inner.name
+class NonEmptyPath(_Checked):
+    """A click.Path that refuses an empty name (which would mean the current folder) and one that is
+    not UTF-8."""
 
     def convert(self, value, param, ctx):
         if isinstance(value, str) and not value.strip():
@@ -91,15 +95,6 @@ class NonEmptyPath(click.ParamType):
                 self.fail(f"{value!r} is not a UTF-8 name; rename it (the CAD, image and plot libraries "
                           "need UTF-8 paths)", param, ctx)
         return self.inner.convert(value, param, ctx)
-
-    def get_metavar(self, param, ctx=None):
-        try:
-            return self.inner.get_metavar(param, ctx)
-        except TypeError:  # click < 8.2
-            return self.inner.get_metavar(param)
-
-    def shell_complete(self, ctx, param, incomplete):
-        return self.inner.shell_complete(ctx, param, incomplete)
 
 
 def harden_numbers(cmd: click.Command) -> click.Command:
@@ -124,14 +119,9 @@ def harden_numbers(cmd: click.Command) -> click.Command:
     return cmd
 
 
-class Utf8Text(click.ParamType):
+class Utf8Text(_Checked):
     """Text that is valid UTF-8 (a shell passes undecodable bytes as lone surrogates, which no plot,
     CSV or JSON writer accepts)."""
-
-    name = "text"
-
-    def __init__(self, inner: click.ParamType):
-        self.inner = inner
 
     def convert(self, value, param, ctx):
         v = self.inner.convert(value, param, ctx)
