@@ -395,3 +395,35 @@ def write_report(path: Path, outcomes: list[Outcome], table) -> None:
     lines += ["", "slowest:", ""] + [f"- {' '.join(o.case.command)} {o.case.param} [{o.case.label}]: "
                                       f"{o.seconds:.2f} s" for o in slow]
     atomic_write_text(path, "\n".join(lines) + "\n")
+    plot_report(path.with_suffix(".png"), outcomes)
+
+
+def plot_report(path: Path, outcomes: list[Outcome]) -> None:
+    """Exit statuses per command (stacked bars): 2 = refused as bad input, 1 = environment, 0 = ran."""
+    import io
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from whisker.files import atomic_write_bytes
+
+    cmds = sorted({" ".join(o.case.command) for o in outcomes})
+    statuses = [(2, "exit 2 (bad input)"), (1, "exit 1 (environment)"), (0, "exit 0 (not garbage)"),
+                (None, "time limit (not garbage)")]
+    fig, ax = plt.subplots(figsize=(7, 0.28 * len(cmds) + 1.2))
+    left = [0] * len(cmds)
+    for code, label in statuses:
+        n = [sum(1 for o in outcomes if " ".join(o.case.command) == c and o.code == code) for c in cmds]
+        ax.barh(cmds, n, left=left, label=label)
+        left = [a + b for a, b in zip(left, n)]
+    other = [sum(1 for o in outcomes if " ".join(o.case.command) == c and o.code not in (0, 1, 2, None)) for c in cmds]
+    ax.barh(cmds, other, left=left, label="other exit")
+    ax.set_xlabel("hostile invocations")
+    ax.invert_yaxis()
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    atomic_write_bytes(path, buf.getvalue())
