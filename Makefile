@@ -36,7 +36,7 @@ step: stl ## the same build (STEP files and the assembly come with every build)
 
 cad: stl
 
-sweep: $(BIN)/.installed ## feasibility sweep over whisker counts 2..16 and radii 4..20 mm
+sweep: $(BIN)/.installed ## feasibility sweep over whisker counts 2..16 and radii 4..25 mm (all cores)
 	$(BIN)/whisker cad sweep $(DESIGN_ARGS) --out $(OUT)/sweep
 
 system-deps: ## install the Debian packages the checks need (.ci/apt-packages: slicer, admesh, fonts)

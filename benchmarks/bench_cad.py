@@ -8,6 +8,8 @@
    export within 20 % of the fastest setting that does (timing noise makes closer calls meaningless).
 2. Build speed: the full default build (every part, STL + STEP + checks) from a cold process, and the
    no-op rebuild, each as a subprocess the way `make stl` runs it.
+3. Sweep speed: time per design point of `whisker cad sweep` on 1 and on 2 worker processes (joblib),
+   over the same 12 cells, and the speed-up between them measured in one run.
 
 Writes benchmarks/results/cad.md, cad_tessellation.csv and cad_tessellation.png.
 """
@@ -87,6 +89,21 @@ def build_timings() -> dict:
     raise RuntimeError("the second build was never a no-op: are the sources changing?")
 
 
+SWEEP_COUNTS, SWEEP_RADII = [4, 8, 12, 16], [8.0, 14.0, 20.0]
+
+
+def sweep_timings() -> dict:
+    from whisker.cad.sweep import sweep
+
+    sweep([8], [12.0], workers=2)  # warm the worker pool's imports once, outside the timing
+    out = {}
+    for workers in (1, 2):
+        t = time.perf_counter()
+        rows = sweep(SWEEP_COUNTS, SWEEP_RADII, workers=workers)
+        out[workers] = (time.perf_counter() - t) / len(rows)
+    return {"per_design_1_s": out[1], "per_design_2_s": out[2], "speedup": out[1] / out[2], "cells": len(rows)}
+
+
 def main() -> None:
     d = default_design()
     rows = tessellation_rows(d)
@@ -96,6 +113,7 @@ def main() -> None:
     current = next((r for r in rows if r["linear_tolerance_mm"] == d.export.linear_tolerance
                     and r["angular_tolerance_rad"] == d.export.angular_tolerance), None)
     timings = build_timings()
+    sweep_t = sweep_timings()
 
     import matplotlib
 
@@ -143,6 +161,13 @@ def main() -> None:
         "## Build speed (subprocesses, as `make stl` runs them)", "",
         f"- full default build, every part, STL + STEP + assembly + all checks: {timings['full_build_s']:.1f} s (target < 30 s)",
         f"- `make stl` again with nothing changed (no-op): {timings['noop_s']:.2f} s (target < 2 s)", "",
+        "## Sweep speed (`whisker cad sweep`, joblib)", "",
+        f"{sweep_t['cells']} cells (counts {SWEEP_COUNTS} x radii {SWEEP_RADII} mm), solids + every check, no export:", "",
+        "| workers | s per design point |", "|---|---|",
+        f"| 1 | {sweep_t['per_design_1_s']:.2f} |", f"| 2 | {sweep_t['per_design_2_s']:.2f} |", "",
+        f"Speed-up 1 -> 2 workers: {sweep_t['speedup']:.2f}x (measured in one run on this 2-core machine). The full "
+        f"`make sweep` (15 counts x 22 radii = 330 points) takes about {330 * sweep_t['per_design_2_s'] / 60:.0f} min "
+        "on 2 cores.", "",
     ]
     path = write_text("cad.md", "\n".join(lines))
     print(f"wrote {path}, {RESULTS / 'cad_tessellation.csv'}, {RESULTS / 'cad_tessellation.png'}")

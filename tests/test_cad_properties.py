@@ -3,7 +3,6 @@ the right counts measured independently here, or is refused with a reason naming
 
 from __future__ import annotations
 
-import csv
 import math
 
 from hypothesis import HealthCheck, given, settings, strategies as st
@@ -15,7 +14,7 @@ from whisker.design import DesignError, default_design
 
 
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(count=st.integers(2, 16), radius=st.floats(4.0, 20.0), clearance=st.sampled_from([0.0, 0.1, 0.2, 0.4]))
+@given(count=st.integers(2, 16), radius=st.floats(4.0, 25.0), clearance=st.sampled_from([0.0, 0.1, 0.2, 0.4]))
 def test_feasible_or_clearly_refused(count, radius, clearance):
     try:
         d = default_design(f"whiskers.count={count}", f"whiskers.ring_radius={radius}", f"print.clearance={clearance}")
@@ -49,13 +48,3 @@ def test_crowded_coils_are_refused_for_the_coils():
     assert "whiskers.count" in failed[0].parameters and "whiskers.ring_radius" in failed[0].parameters
 
 
-def test_sweep_writes_table_and_plot(tmp_path):
-    res = run_cli("cad", "sweep", "--counts", "8..9", "--radii", "12,20", "--out", str(tmp_path), "--workers", "2")
-    assert res.returncode == 0, res.stderr
-    rows = list(csv.DictReader(open(tmp_path / "sweep.csv")))
-    assert len(rows) == 4
-    cell = {(int(r["count"]), float(r["ring_radius_mm"])): r for r in rows}
-    assert cell[(8, 12.0)]["feasible"] == "True"
-    assert cell[(8, 20.0)]["feasible"] == "False" and "ring_radius" in cell[(8, 20.0)]["reason"]
-    assert (tmp_path / "sweep.png").stat().st_size > 10_000
-    assert "| 8 |" in (tmp_path / "sweep.md").read_text()

@@ -299,7 +299,7 @@ def test_default_design_slices_every_printable_part(default_build, tmp_path):
     assert all(f"| {n} |" in md for n in printable) and "Whole sensor" in md and "Coarse slicing" in md
 
 
-@pytest.mark.parametrize("count, radius", [(6, 10), (12, 12)])
+@pytest.mark.parametrize("count, radius", [(6, 10), (12, 12), (16, 20)])
 def test_six_and_twelve_whisker_parts_slice(count, radius, tmp_path):
     """The parts whose geometry changes with the whisker count, straight from the part models in
     their printing pose (no full CAD build, to keep CI short; `make check-print WHISKERS=6 RADIUS=10`

@@ -21,7 +21,7 @@ from whisker.files import atomic_write_json, publish, staging_dir
 
 from . import checks
 from .assembly import export_step, sensor_assembly
-from .buildkey import FORMATS, build_key
+from .buildkey import FORMATS, build_key, file_sha256
 from .parts import PARTS, print_pose, print_transform
 
 
@@ -75,6 +75,7 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = FORMATS,
         raise DesignRefused([c for c in solid if not c.ok])
 
     lin, ang = d.export.linear_tolerance, d.export.angular_tolerance
+    _drop_stale_staging(out)
     parts: dict[str, dict] = {}
     part_checks: dict[str, list[checks.Check]] = {}  # in part order, as the manifest lists them
     files: list[str] = []
@@ -130,6 +131,7 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = FORMATS,
 
         timings["total_s"] = time.perf_counter() - t0
         manifest = {
+            "file_sha256": {name: file_sha256(tmp / name) for name in files},
             "generator": "whisker cad build",
             "build_key": build_key(d, formats),
             "design_digest": d.digest(),
@@ -143,9 +145,27 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = FORMATS,
         }
         atomic_write_json(tmp / "manifest.json", manifest)
         old = _previous_files(out)
-        publish(tmp, out, files + ["manifest.json"], stale=old)
+        say("publishing")
+        publish(tmp, out, files + ["manifest.json"], stale=old, after_each=_publish_pause())
     say(f"wrote {len(files)} files to {out}")
     return manifest
+
+
+def _drop_stale_staging(out: Path) -> None:
+    """Remove staging folders a killed build left beside `out` (one build per output folder at a time)."""
+    import shutil
+
+    for stale in out.parent.glob(f".{out.name}.tmp-*"):
+        shutil.rmtree(stale, ignore_errors=True)
+
+
+def _publish_pause() -> Callable[[str], None] | None:
+    """WHISKER_PUBLISH_PAUSE_S: seconds to wait after each published file, so a test can kill a
+    build part-way through publishing (tests/test_cad_manifest.py). Unset in normal use."""
+    import os
+
+    pause = float(os.environ.get("WHISKER_PUBLISH_PAUSE_S", "0") or 0)
+    return (lambda name: time.sleep(pause)) if pause > 0 else None
 
 
 def mesh_design_checks(d: Design, meshes: dict[str, trimesh.Trimesh]) -> list[checks.Check]:

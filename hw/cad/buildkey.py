@@ -28,12 +28,24 @@ def build_key(d: Design, formats: tuple[str, ...]) -> str:
     return f"{d.digest()}-{source_digest()}-{'+'.join(sorted(formats))}"
 
 
+def file_sha256(path: str | Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 def up_to_date(out: str | Path, d: Design, formats: tuple[str, ...] = FORMATS) -> bool:
-    """True when `out` holds a complete build of exactly this design and CAD code."""
+    """True when `out` holds a complete build of exactly this design and CAD code: the manifest's
+    build key matches and every file it lists has the hash it records (a build killed while it
+    published leaves the old manifest beside some new files; this finds them)."""
     out = Path(out)
     try:
         manifest = json.loads((out / "manifest.json").read_text())
-    except (FileNotFoundError, ValueError):
+        hashes = manifest["file_sha256"]
+        if manifest.get("build_key") != build_key(d, formats) or not hashes:
+            return False
+        return all(file_sha256(out / name) == digest for name, digest in hashes.items())
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return False
-    files = [f for p in manifest.get("parts", {}).values() for f in p.get("files", {}).values()]
-    return manifest.get("build_key") == build_key(d, formats) and all((out / f).exists() for f in files)

@@ -13,54 +13,28 @@ Seen from the side, top to bottom (z in mm, sensor coordinates):
 
 from __future__ import annotations
 
-import math
-
 import cadquery as cq
 
+from whisker import sizing
 from whisker.design import Design
 
 from .shapes import cut_all, cylinder, polar_xy, polygon_prism, radial_cylinder, revolved
-
-
-def levels(d: Design) -> dict[str, float]:
-    """Heights (z, mm) of the mount's features, shared by the model and its checks."""
-    pocket_d = d.hole(d.magnet.diameter)
-    led_top = d.coil_axis_z - pocket_d / 2 - d.mount.led_drop
-    led_bottom = led_top - d.hole(d.mount.led_strip_width)
-    cyl_bottom = led_bottom - d.print.min_wall
-    board_face = d.camera_z - d.camera.lens_height
-    bottom = board_face - d.camera.board_thickness - d.mount.camera_recess
-    cable = cyl_bottom - d.mount.cable_exit_diameter / 2 - d.print.min_wall
-    return dict(top=d.membrane.thickness, seat=0.0, pocket=d.coil_axis_z, pocket_top=d.coil_axis_z + pocket_d / 2,
-                led_top=led_top, led_bottom=led_bottom, cylinder_bottom=cyl_bottom, cable=cable,
-                board_face=board_face, bottom=bottom)
-
-
-def lens_radius(d: Design) -> float:
-    """Radius of the opening above the camera board: the lens holder's half-diagonal + clearance."""
-    return d.camera.lens_block / math.sqrt(2) + d.print.clearance
-
-
-def pocket_outer_radius(d: Design) -> float:
-    return d.cavity_radius + d.magnet.height + d.mount.glue_gap
-
-
-def led_outer_radius(d: Design) -> float:
-    return d.cavity_radius + d.mount.led_strip_thickness + d.print.clearance
 
 
 def cavity_profile(d: Design, z: dict[str, float]) -> cq.Solid:
     """The open inside of the mount as one solid of revolution: lens opening, cone, coil cavity
     and, where the flange is narrower than the cavity, the undercut neck under the membrane.
     One revolved outline has no coincident walls, so its mesh stays manifold for any design."""
-    r_cav, neck = d.cavity_radius, d.neck_radius
+    r_cav, neck, r_lens = d.cavity_radius, d.neck_radius, sizing.lens_radius(d)
     top = [(r_cav, -d.mount.flange_thickness), (neck, -d.mount.flange_thickness)] if neck < r_cav - 1e-6 else []
-    return revolved([(0.0, z["board_face"] - 0.01), (lens_radius(d), z["board_face"] - 0.01),
+    # A cavity narrower than the lens opening: the opening goes straight up past the lens holder first.
+    holder = [(r_lens, sizing.lens_top_z(d))] if r_cav < r_lens and sizing.lens_top_z(d) < z["cylinder_bottom"] else []
+    return revolved([(0.0, z["board_face"] - 0.01), (r_lens, z["board_face"] - 0.01), *holder,
                      (r_cav, z["cylinder_bottom"]), *top, (neck, z["seat"] + 0.5), (0.0, z["seat"] + 0.5)])
 
 
 def mount(d: Design) -> cq.Shape:
-    z = levels(d)
+    z = sizing.mount_levels(d)
     m, cam, clr = d.mount, d.camera, d.print.clearance
     body = cylinder(m.outer_radius, z["bottom"], z["top"])
     r_cav = d.cavity_radius
@@ -68,23 +42,21 @@ def mount(d: Design) -> cq.Shape:
         polygon_prism(d.membrane.sides, d.membrane.inscribed_radius + clr, z["seat"], z["top"] + 1),
         cavity_profile(d, z),
         # LED strip groove, facing inwards
-        cylinder(led_outer_radius(d), z["led_bottom"], z["led_top"]),
+        cylinder(sizing.led_outer_radius(d), z["led_bottom"], z["led_top"]),
         # camera board pocket and flat-cable slot, both open at the bottom
         cq.Solid.makeBox(d.hole(cam.board_width), d.hole(cam.board_height), z["board_face"] - z["bottom"] + 1,
                          cq.Vector(-d.hole(cam.board_width) / 2, -d.hole(cam.board_height) / 2, z["bottom"] - 1)),
         cq.Solid.makeBox(m.ribbon_width, m.outer_radius + 1, cam.board_thickness + m.camera_recess + m.ribbon_thickness + 1,
                          cq.Vector(-m.ribbon_width / 2, -m.outer_radius - 1, z["bottom"] - 1)),
     ]
-    tools += [radial_cylinder(r_cav - 0.5, pocket_outer_radius(d), d.hole(d.magnet.diameter), z["pocket"], a)
+    tools += [radial_cylinder(r_cav - 0.5, sizing.pocket_outer_radius(d), d.hole(d.magnet.diameter), z["pocket"], a)
               for a in d.whisker_angles_deg]
     hx, hy = cam.hole_spacing_x / 2, cam.hole_spacing_y / 2
     tools += [cylinder(cam.hole_diameter / 2, z["board_face"] - 0.5, z["board_face"] + 5, sx * hx, sy * hy)
               for sx in (-1, 1) for sy in (-1, 1)]
     # Mounting holes start at +y; the flat cable leaves at -y.
     tools += [cylinder(d.hole(m.mounting_hole_diameter) / 2, z["bottom"] - 1, z["bottom"] + m.mounting_hole_depth,
-                       *polar_xy(m.mounting_bolt_radius, 90 + 360 * k / m.mounting_hole_count))
-              for k in range(m.mounting_hole_count)]
-    tools += [radial_cylinder(0, m.outer_radius + 1, d.hole(m.cable_exit_diameter), z["cable"],
-                              180.0 / d.whiskers.count + 360.0 * k / m.cable_exit_count)
-              for k in range(m.cable_exit_count)]
+                       *polar_xy(m.mounting_bolt_radius, a)) for a in sizing.mounting_hole_angles(d)]
+    tools += [radial_cylinder(0, m.outer_radius + 1, d.hole(m.cable_exit_diameter), z["cable"], a)
+              for a in sizing.cable_exit_angles(d)]
     return cut_all(body, tools)

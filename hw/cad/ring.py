@@ -21,7 +21,9 @@ def radii(d: Design) -> dict[str, float]:
     w, r = d.whiskers, d.ring
     socket_r = d.hole(w.rod_diameter) / 2
     outer = max(w.ring_radius + socket_r + r.margin, mold.outer_radius(d))
-    return dict(opening=w.ring_radius - socket_r - r.margin, outer=outer, tube_inner=outer - r.tube_wall)
+    # The Ecoflex is poured through the plate's opening: never narrower than the pour opening.
+    opening = max(w.ring_radius - socket_r - r.margin, d.mold.pour_diameter / 2)
+    return dict(opening=opening, outer=outer, tube_inner=outer - r.tube_wall)
 
 
 def levels(d: Design) -> dict[str, float]:

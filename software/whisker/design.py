@@ -16,9 +16,10 @@ import hashlib
 import json
 import math
 from pathlib import Path
-from typing import Any, Iterable, Literal
+from typing import Annotated, Any, Iterable, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, PrivateAttr, ValidationError, field_validator,
+                      model_validator)
 
 try:  # Python >= 3.11
     import tomllib
@@ -37,7 +38,24 @@ def _default_design_path() -> Path:
 
 DEFAULT_DESIGN = _default_design_path()
 
-Pos = Field(gt=0)
+def _auto_or(lo: float, hi: float, unit: str, integer: bool = False) -> BeforeValidator:
+    """A value that is either "auto" (its rule in whisker.sizing decides) or a number in (lo, hi]."""
+    def check(v):
+        if v == "auto":
+            return v
+        ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) and lo < v <= hi
+        if not ok or (integer and v != int(v)):
+            kind = "a whole number" if integer else "a number"
+            raise ValueError(f'must be "auto" (sized from the ring) or {kind} in ({lo:g}, {hi:g}] {unit}')
+        return int(v) if integer else float(v)
+    return BeforeValidator(check)
+
+
+# Sizes that follow the ring by default (hw/sensor.toml says "auto"; whisker.sizing holds the rules).
+AutoMm = Annotated[Literal["auto"] | float, _auto_or(0, 1000, "mm")]
+AutoCount = Annotated[Literal["auto"] | int, _auto_or(0, 64, "", integer=True)]
+# Finite physical bounds for plain sizes: a part on this printer is never a metre long.
+Mm = Annotated[float, Field(gt=0, le=1000)]
 
 
 class _Section(BaseModel):
@@ -47,100 +65,105 @@ class _Section(BaseModel):
 
 class Whiskers(_Section):
     count: int = Field(ge=1, le=64, description="number of whiskers")
-    ring_radius: float = Field(gt=0, description="mm, circle of rod centres")
-    rod_diameter: float = Field(gt=0, description="mm")
-    rod_length: float = Field(gt=0, description="mm, whole rod")
-    protrusion: float = Field(gt=0, description="mm of rod above the membrane's upper face")
+    ring_radius: float = Field(ge=1, le=100, description="mm, circle of rod centres")
+    rod_diameter: float = Field(gt=0, le=20, description="mm")
+    rod_length: float = Field(gt=0, le=1000, description="mm, whole rod")
+    protrusion: float = Field(gt=0, le=1000, description="mm of rod above the membrane's upper face")
     max_deflection_deg: float = Field(gt=0, lt=45, description="deg, largest tilt about the pivot")
     first_angle_deg: float = Field(ge=-360, le=360, description="deg, whisker 0 from +x, CCW")
 
 
 class Membrane(_Section):
     sides: int = Field(ge=3, le=64, description="regular polygon side count")
-    inscribed_radius: float = Field(gt=0, description="mm")
-    thickness: float = Field(gt=0, description="mm")
+    inscribed_radius: AutoMm = Field(description="mm; auto: the seat opening passes and clears the coils")
+    thickness: float = Field(gt=0, le=50, description="mm")
     material: str = "Ecoflex 00-30"
-    density: float = Field(gt=0, description="g/cm^3")
+    density: float = Field(gt=0, le=25, description="g/cm^3")
 
 
 class Coil(_Section):
-    outer_diameter: float = Field(gt=0, description="mm")
-    inner_diameter: float = Field(gt=0, description="mm, winding bore")
-    length: float = Field(gt=0, description="mm along the (radial) coil axis")
-    drop: float = Field(ge=0, description="mm from the membrane's lower face to the coil's top")
-    wire_diameter: float = Field(gt=0, description="mm, bare copper")
-    turns: int = Field(ge=1, description="turns")
-    resistance: float = Field(gt=0, description="ohm, measured")
-    marker_diameter: float = Field(gt=0, description="mm, red dot on the coil's lower face")
+    outer_diameter: float = Field(gt=0, le=50, description="mm")
+    inner_diameter: float = Field(gt=0, le=50, description="mm, winding bore")
+    length: float = Field(gt=0, le=50, description="mm along the (radial) coil axis")
+    drop: float = Field(ge=0, le=50, description="mm from the membrane's lower face to the coil's top")
+    wire_diameter: float = Field(gt=0, le=5, description="mm, bare copper")
+    turns: int = Field(ge=1, le=100000, description="turns")
+    resistance: float = Field(gt=0, le=1e6, description="ohm, measured")
+    marker_diameter: float = Field(gt=0, le=50, description="mm, red dot on the coil's lower face")
 
 
 class Magnet(_Section):
-    diameter: float = Field(gt=0, description="mm")
-    height: float = Field(gt=0, description="mm along the magnetisation")
+    diameter: float = Field(gt=0, le=50, description="mm")
+    height: float = Field(gt=0, le=50, description="mm along the magnetisation")
     grade: str = "N42"
     remanence: float = Field(gt=0, lt=2, description="T")
-    max_temperature: float = Field(gt=0, description="C")
+    max_temperature: float = Field(gt=0, le=400, description="C")
 
 
 class Actuation(_Section):
-    gap: float = Field(gt=0, description="mm between coil face and magnet face at rest")
-    voltage: float = Field(gt=0, description="V at the coil for grasping")
+    gap: float = Field(gt=0, le=50, description="mm between coil face and magnet face at rest")
+    voltage: float = Field(gt=0, le=50, description="V at the coil for grasping")
 
 
 class Camera(_Section):
-    distance: float = Field(gt=0, description="mm, marker plane to the lens's optical centre")
-    focal_length_px: float = Field(gt=0, description="px")
-    width_px: int = Field(ge=16)
-    height_px: int = Field(ge=16)
-    board_width: float = Field(gt=0, description="mm")
-    board_height: float = Field(gt=0, description="mm")
-    board_thickness: float = Field(gt=0, description="mm")
-    lens_height: float = Field(gt=0, description="mm, board front face to optical centre")
-    lens_block: float = Field(gt=0, description="mm, square lens holder")
-    hole_spacing_x: float = Field(gt=0, description="mm")
-    hole_spacing_y: float = Field(gt=0, description="mm")
-    hole_diameter: float = Field(gt=0, description="mm")
+    distance: AutoMm = Field(description="mm, marker plane to the lens's optical centre; auto: the ring "
+                             "keeps ring_radius_px in the image")
+    ring_radius_px: float = Field(gt=1, le=10000, description="px, the ring's radius in the (undistorted) image "
+                                  "that camera.distance = auto keeps")
+    edge_margin_px: float = Field(ge=0, le=1000, description="px a marker at full deflection keeps from the image edge")
+    focal_length_px: float = Field(gt=0, le=100000, description="px")
+    width_px: int = Field(ge=16, le=100000)
+    height_px: int = Field(ge=16, le=100000)
+    board_width: float = Field(gt=0, le=200, description="mm")
+    board_height: float = Field(gt=0, le=200, description="mm")
+    board_thickness: float = Field(gt=0, le=20, description="mm")
+    lens_height: float = Field(gt=0, le=100, description="mm, board front face to optical centre")
+    lens_block: float = Field(gt=0, le=100, description="mm, square lens holder")
+    hole_spacing_x: float = Field(gt=0, le=200, description="mm")
+    hole_spacing_y: float = Field(gt=0, le=200, description="mm")
+    hole_diameter: float = Field(gt=0, le=20, description="mm")
 
 
 class Mount(_Section):
-    outer_radius: float = Field(gt=0, description="mm")
-    glue_gap: float = Field(ge=0, description="mm behind each magnet")
-    led_strip_width: float = Field(gt=0, description="mm")
-    led_strip_thickness: float = Field(gt=0, description="mm")
-    led_drop: float = Field(ge=0, description="mm from the pockets' lower edge to the LED channel")
-    seat_ledge: float = Field(gt=0, description="mm of the membrane's rim resting on the seat flange")
-    flange_thickness: float = Field(gt=0, description="mm, seat flange above the (wider) coil cavity")
-    camera_recess: float = Field(ge=0, description="mm below the camera board")
+    outer_radius: AutoMm = Field(description="mm; auto: min wall outside every inner feature, whole mm")
+    glue_gap: float = Field(ge=0, le=10, description="mm behind each magnet")
+    led_strip_width: float = Field(gt=0, le=50, description="mm")
+    led_strip_thickness: float = Field(gt=0, le=20, description="mm")
+    led_drop: float = Field(ge=0, le=50, description="mm from the pockets' lower edge to the LED channel")
+    seat_ledge: float = Field(gt=0, le=20, description="mm of the membrane's rim resting on the seat flange")
+    flange_thickness: float = Field(gt=0, le=20, description="mm, seat flange above the (wider) coil cavity")
+    camera_recess: float = Field(ge=0, le=50, description="mm below the camera board")
     mounting_hole_count: int = Field(ge=0, le=12)
-    mounting_hole_diameter: float = Field(gt=0, description="mm")
-    mounting_hole_depth: float = Field(gt=0, description="mm")
-    mounting_bolt_radius: float = Field(gt=0, description="mm")
-    cable_exit_diameter: float = Field(gt=0, description="mm")
-    cable_exit_count: int = Field(ge=0, le=8)
-    ribbon_width: float = Field(gt=0, description="mm")
-    ribbon_thickness: float = Field(gt=0, description="mm")
+    mounting_hole_diameter: float = Field(gt=0, le=20, description="mm")
+    mounting_hole_depth: float = Field(gt=0, le=100, description="mm")
+    mounting_bolt_radius: AutoMm = Field(description="mm; auto: as far out as the outer wall allows")
+    cable_exit_diameter: float = Field(gt=0, le=20, description="mm")
+    cable_exit_count: AutoCount = Field(description="auto: one per four coils")
+    ribbon_width: float = Field(gt=0, le=100, description="mm")
+    ribbon_thickness: float = Field(gt=0, le=20, description="mm")
 
 
 class Mold(_Section):
-    wall: float = Field(gt=0, description="mm")
-    floor: float = Field(gt=0, description="mm")
-    lid_thickness: float = Field(gt=0, description="mm")
-    pin_diameter: float = Field(gt=0, description="mm")
-    pin_height: float = Field(gt=0, description="mm")
-    pour_diameter: float = Field(gt=0, description="mm")
-    vent_diameter: float = Field(gt=0, description="mm")
+    wall: float = Field(gt=0, le=50, description="mm")
+    floor: float = Field(gt=0, le=50, description="mm")
+    lid_thickness: float = Field(gt=0, le=50, description="mm")
+    pin_diameter: float = Field(gt=0, le=20, description="mm")
+    pin_height: float = Field(gt=0, le=20, description="mm")
+    pour_diameter: AutoMm = Field(description="mm; auto: the largest up to max_pour_diameter inside the ring")
+    max_pour_diameter: float = Field(gt=0, le=100, description="mm, the pour opening a cup's spout needs")
+    vent_diameter: float = Field(gt=0, le=20, description="mm")
 
 
 class Ring(_Section):
-    hole_depth: float = Field(gt=0, description="mm")
-    plate_thickness: float = Field(gt=0, description="mm")
-    tube_wall: float = Field(gt=0, description="mm")
-    margin: float = Field(gt=0, description="mm")
+    hole_depth: float = Field(gt=0, le=100, description="mm")
+    plate_thickness: float = Field(gt=0, le=100, description="mm")
+    tube_wall: float = Field(gt=0, le=50, description="mm")
+    margin: float = Field(gt=0, le=50, description="mm")
 
 
 class Print(_Section):
     clearance: float = Field(ge=0, le=2, description="mm, radial, added to holes and pockets")
-    min_wall: float = Field(gt=0, description="mm")
+    min_wall: float = Field(gt=0, le=20, description="mm")
     profile: str = Field(min_length=1, description="PrusaSlicer printer profile .ini (relative to hw/): the "
                          "one source of the bed, height, nozzle, layer and filament numbers (whisker.printer)")
     coupon_clearances: tuple[float, ...] = Field(min_length=1, max_length=12,
@@ -189,25 +212,25 @@ class Export(_Section):
 
 
 class Mechanics(_Section):
-    rotational_stiffness: float = Field(gt=0, description="N*mm/rad about a whisker's pivot")
-    damping_ratio: float = Field(ge=0, description="dimensionless")
-    rod_density: float = Field(gt=0, description="g/cm^3")
-    tip_friction: float = Field(ge=0, description="Coulomb coefficient of the tips")
+    rotational_stiffness: float = Field(gt=0, le=1e4, description="N*mm/rad about a whisker's pivot")
+    damping_ratio: float = Field(ge=0, le=100, description="dimensionless")
+    rod_density: float = Field(gt=0, le=25, description="g/cm^3")
+    tip_friction: float = Field(ge=0, le=10, description="Coulomb coefficient of the tips")
 
 
 class Thermal(_Section):
     ambient: float = Field(ge=-50, le=100, description="C")
-    pla_softening: float = Field(gt=0, description="C")
-    enamel_class: float = Field(gt=0, description="C")
+    pla_softening: float = Field(gt=0, le=400, description="C")
+    enamel_class: float = Field(gt=0, le=400, description="C")
     convection_coefficient: float = Field(20.0, gt=0, le=1000, description="W/(m^2 K), coil surface to air")
     emissivity: float = Field(0.9, ge=0, le=1, description="coil surface (enamel)")
-    rod_conductance: float = Field(0.0015, ge=0, description="W/K, coil to membrane through the rod")
-    former_specific_heat: float = Field(0.8, gt=0, description="J/(g K), core in the coil bore (the rod)")
+    rod_conductance: float = Field(0.0015, ge=0, le=100, description="W/K, coil to membrane through the rod")
+    former_specific_heat: float = Field(0.8, gt=0, le=100, description="J/(g K), core in the coil bore (the rod)")
 
 
 class Driver(_Section):
     type: str = Field(description="H-bridge module name")
-    supply_voltage: float = Field(gt=0, description="V into the H-bridge")
+    supply_voltage: float = Field(gt=0, le=100, description="V into the H-bridge")
     series_resistance: Literal["auto"] | float = Field("auto", description=(
         "ohm, resistor in series with each coil between the H-bridge output and the coil; 0 = none; "
         "'auto' = the smallest E24 value that keeps a cold coil at <= drive.max_coil_voltage at 100 % "
@@ -228,9 +251,9 @@ class Drive(_Section):
         "V measured across a coil at 100 % PWM duty; 0 = from the driver model (whisker.driver)"))
     max_coil_voltage: float = Field(gt=0, le=50, description="V, coil rating: higher levels are refused")
     pwm_frequency: float = Field(ge=10, le=100000, description="Hz, PWM on the H-bridge inputs")
-    guard_margin: float = Field(ge=0, description="C below the first thermal limit where a coil is cut")
-    guard_derate_band: float = Field(ge=0, description="C below the cut-off where derating starts")
-    guard_hysteresis: float = Field(gt=0, description="C a cut coil cools below the cut-off before re-use")
+    guard_margin: float = Field(ge=0, le=200, description="C below the first thermal limit where a coil is cut")
+    guard_derate_band: float = Field(ge=0, le=200, description="C below the cut-off where derating starts")
+    guard_hysteresis: float = Field(gt=0, le=200, description="C a cut coil cools below the cut-off before re-use")
     guard_period: float = Field(gt=0, le=1, description="s between thermal-guard updates")
 
 
@@ -242,10 +265,10 @@ class Wiring(_Section):
 
 class Bom(_Section):
     wire_waste: float = Field(ge=0, le=5, description="fraction of magnet wire added for practice/scrap")
-    coil_lead_length: float = Field(ge=0, description="mm of magnet wire per coil lead (2 leads per coil)")
+    coil_lead_length: float = Field(ge=0, le=10000, description="mm of magnet wire per coil lead (2 leads per coil)")
     ecoflex_waste: float = Field(ge=0, le=5, description="fraction of Ecoflex added (cup, sprue, vents)")
     pla_waste: float = Field(ge=0, le=5, description="fraction of PLA added (brim, purge, failed prints)")
-    led_cut_pitch: float = Field(gt=0, description="mm between the LED strip's cut marks")
+    led_cut_pitch: float = Field(gt=0, le=1000, description="mm between the LED strip's cut marks")
 
 
 class Tracking(_Section):
@@ -283,6 +306,26 @@ class Design(_Section):
     mechanics: Mechanics
     thermal: Thermal
     driver: Driver
+
+    # "section.key" -> the rule's reason, for every value a rule sized (empty: all from the file).
+    _rules: dict[str, str] = PrivateAttr(default_factory=dict)
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _resolve_auto(cls, data: Any, handler) -> "Design":
+        """Replace every "auto" by its rule (whisker.sizing) before the model is built."""
+        if not isinstance(data, dict):
+            return handler(data)
+        from whisker.sizing import resolve_auto
+
+        resolved, rules = resolve_auto(data, handler)
+        design = handler(resolved)
+        design._rules = rules
+        return design
+
+    def source(self, name: str) -> str:
+        """Where a value came from: "rule: <reason>" or "file" ("section.key")."""
+        return f"rule: {self._rules[name]}" if name in self._rules else "file"
 
     @model_validator(mode="after")
     def _buildable(self) -> "Design":

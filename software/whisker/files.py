@@ -9,7 +9,7 @@ import shutil
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Callable, Iterator
 
 
 def read_toml(path: str | Path, what: str, error: type[Exception] = ValueError) -> dict:
@@ -85,16 +85,21 @@ def staging_dir(final: str | Path) -> Iterator[Path]:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
-def publish(staged: Path, final: Path, names: list[str], stale: list[str] = ()) -> None:
+def publish(staged: Path, final: Path, names: list[str], stale: list[str] = (),
+            after_each: Callable[[str], None] | None = None) -> None:
     """Move `names` from `staged` into `final` one atomic rename each, then drop `stale` files.
 
     Callers put the index file (e.g. manifest.json) last, so a reader never sees an index that
-    points to files not yet in place.
+    points to files not yet in place; a process killed part-way leaves the old index, whose file
+    hashes then disagree with the files already replaced (see whisker.cad.buildkey.up_to_date).
+    `after_each(name)` runs after every rename (progress, or a test that kills the build there).
     """
     final.mkdir(parents=True, exist_ok=True)
     for name in names:
         (final / name).parent.mkdir(parents=True, exist_ok=True)
         os.replace(staged / name, final / name)
+        if after_each:
+            after_each(name)
     for name in stale:
         if name not in names:
             (final / name).unlink(missing_ok=True)

@@ -66,11 +66,15 @@ def _float_list(text: str) -> list[float]:
               help="Design TOML file (default: hw/sensor.toml).")
 @click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE", help="Override a design value.")
 @click.option("--counts", default="2..16", show_default=True, help="Whisker counts, a..b.")
-@click.option("--radii", default="4..20:2", show_default=True, help="Ring radii in mm: a..b:step or a,b,c.")
+@click.option("--radii", default="4..25:1", show_default=True, help="Ring radii in mm: a..b:step or a,b,c.")
 @click.option("--out", type=click.Path(file_okay=False), default="exports/sweep", show_default=True)
-@click.option("--workers", default=2, show_default=True, help="Parallel processes.")
+@click.option("--workers", default=-1, show_default=True, help="Parallel processes (joblib; -1 = every core).")
 def sweep(design_file, overrides, counts, radii, out, workers):
-    """Build and check every (count, radius) pair: a table and a plot of the feasible region."""
+    """Build and check every (count, radius) pair: a table and a plot of the feasible region.
+
+    Every size set to "auto" in the design follows the ring. Each refused cell names the physical
+    conflict behind it; the plot draws the small-ring bound (neighbouring coils at full inward swing).
+    """
     from tqdm import tqdm
 
     from whisker.cad.sweep import sweep as run_sweep, write_reports
@@ -81,8 +85,11 @@ def sweep(design_file, overrides, counts, radii, out, workers):
     def progress(i, n):
         bar.update(i - bar.n)
 
+    t0 = time.perf_counter()
     rows = run_sweep(counts_l, radii_l, design_file, tuple(overrides), workers, progress)
     bar.close()
+    per = (time.perf_counter() - t0) / max(1, len(rows))
     paths = write_reports(rows, Path(out))
     ok = sum(r["feasible"] for r in rows)
-    click.echo(f"{ok} of {len(rows)} designs feasible; wrote " + ", ".join(str(p) for p in paths))
+    click.echo(f"{ok} of {len(rows)} designs feasible ({per:.2f} s per design); wrote "
+               + ", ".join(str(p) for p in paths))

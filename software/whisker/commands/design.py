@@ -18,14 +18,26 @@ def cli():
 @design_options
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of TOML.")
 def show(design, as_json):
-    """Print the fully resolved design and its derived quantities (l_u, l_l, mm per pixel ...)."""
+    """Print the fully resolved design, where each value came from, and its derived quantities.
+
+    Every value is marked "file" (hw/sensor.toml, --design or --set) or "rule" (set to "auto" in the
+    file and sized from the ring by whisker.sizing, with the rule's reason).
+    """
     derived = {**design.derived(), "digest": design.digest()}
+    data = design.to_dict()
+    sources = {f"{sec}.{key}": design.source(f"{sec}.{key}") for sec, vals in data.items() for key in vals}
     if as_json:
-        click.echo(json.dumps({"design": design.to_dict(), "derived": derived}, indent=2))
+        click.echo(json.dumps({"design": data, "sources": sources, "derived": derived}, indent=2))
         return
     import tomli_w
 
-    click.echo(tomli_w.dumps(design.to_dict()))
+    for sec, vals in data.items():
+        click.echo(f"[{sec}]")
+        for key, value in vals.items():
+            line = tomli_w.dumps({key: value}).strip()
+            src = sources[f"{sec}.{key}"]
+            click.echo(f"{line:<40} # {src}")
+        click.echo("")
     click.echo("# derived")
     for k, v in derived.items():
         click.echo(f"# {k} = {v}")

@@ -1,0 +1,307 @@
+"""Sizes that follow the ring: the rules behind every design value set to ``"auto"``.
+
+A design file may give a ring-dependent size as a number (it is then used as given) or as
+``"auto"``; :func:`resolve_auto` replaces each ``"auto"`` by its rule, in the order of
+:data:`RULES` (later rules read the values of earlier ones). Each rule is a pure function of the
+design and says why it is what it is. For the paper's sensor (8 whiskers at R = 12 mm) the rules
+give back the paper's sizes: membrane 16 mm, mount 22 mm, camera 35.2 mm below the markers.
+
+The mount's layout (heights of its features, lens opening, pocket and LED radii) lives here too,
+so that the design model can size the mount without CadQuery; ``whisker.cad.mount`` builds the
+solid from the same numbers.
+
+Units: mm and degrees. Coordinates as everywhere: z = 0 on the membrane's lower face, z up.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from whisker.design import Design
+
+# The membrane is a cast part: its size rounds up to half millimetres (a mould maker's step).
+MEMBRANE_STEP_MM = 0.5
+# The mount's outer radius rounds up to whole millimetres (a printed body; the sizes stay readable).
+MOUNT_STEP_MM = 1.0
+# Tilts sampled over the swing when finding how far a coil reaches (31 gives < 0.01 mm error).
+SWING_SAMPLES = 31
+
+
+def ceil_step(x: float, step: float) -> float:
+    """x rounded up to a multiple of step (a value already on the grid stays)."""
+    return round(math.ceil(x / step - 1e-9) * step, 9)
+
+
+def floor_step(x: float, step: float) -> float:
+    return round(math.floor(x / step + 1e-9) * step, 9)
+
+
+# ---- the mount's layout (mm) ---------------------------------------------------------------
+
+def mount_levels(d: "Design") -> dict[str, float]:
+    """Heights (z, mm) of the mount's features, shared by the model, its checks and the rules."""
+    pocket_d = d.hole(d.magnet.diameter)
+    led_top = d.coil_axis_z - pocket_d / 2 - d.mount.led_drop
+    led_bottom = led_top - d.hole(d.mount.led_strip_width)
+    cyl_bottom = led_bottom - d.print.min_wall
+    board_face = d.camera_z - d.camera.lens_height
+    bottom = board_face - d.camera.board_thickness - d.mount.camera_recess
+    cable = cyl_bottom - d.mount.cable_exit_diameter / 2 - d.print.min_wall
+    return dict(top=d.membrane.thickness, seat=0.0, pocket=d.coil_axis_z, pocket_top=d.coil_axis_z + pocket_d / 2,
+                led_top=led_top, led_bottom=led_bottom, cylinder_bottom=cyl_bottom, cable=cable,
+                board_face=board_face, bottom=bottom)
+
+
+def lens_radius(d: "Design") -> float:
+    """Radius of the opening above the camera board: the lens holder's half-diagonal + clearance."""
+    return d.camera.lens_block / math.sqrt(2) + d.print.clearance
+
+
+def pocket_outer_radius(d: "Design") -> float:
+    """Radius where the magnet pockets end (magnet + glue gap behind it), mm."""
+    return d.cavity_radius + d.magnet.height + d.mount.glue_gap
+
+
+def led_outer_radius(d: "Design") -> float:
+    return d.cavity_radius + d.mount.led_strip_thickness + d.print.clearance
+
+
+def lens_top_z(d: "Design") -> float:
+    """Top of the lens holder (it reaches up to the optical centre), mm."""
+    return d.camera_z
+
+
+def cone_radius_at(d: "Design", z: float) -> float:
+    """Radius of the mount's inner cone (lens opening up to the coil cavity) at height z, mm."""
+    lv = mount_levels(d)
+    z0, z1 = lv["board_face"], lv["cylinder_bottom"]
+    r0, r1 = lens_radius(d), d.cavity_radius
+    if z1 <= z0:
+        return max(r0, r1)
+    t = min(1.0, max(0.0, (z - z0) / (z1 - z0)))
+    return r0 + t * (r1 - r0)
+
+
+def mounting_hole_angles(d: "Design") -> list[float]:
+    """Robot mounting holes: the first at +y (the camera's flat cable leaves at -y), deg."""
+    n = d.mount.mounting_hole_count
+    return [90.0 + 360.0 * k / n for k in range(n)]
+
+
+def cable_exit_angles(d: "Design") -> list[float]:
+    """Radial cable exits, each midway between two neighbouring whiskers, deg."""
+    n, k = d.whiskers.count, d.mount.cable_exit_count
+    step = 360.0 / n
+    return [d.whiskers.first_angle_deg + step / 2 + step * round(i * n / k) for i in range(k)]
+
+
+# ---- how far a coil reaches over its swing ---------------------------------------------------
+
+def coil_surface_points(d: "Design", tilt_deg: float) -> np.ndarray:
+    """Points on whisker 0's coil surface (x radial, y tangential, z), tilted by tilt_deg about
+    the pivot (retraction positive: tip in, coil out), mm. The coil is a cylinder with a radial
+    axis; its end circles and lateral lines hold every extreme point a radius can reach."""
+    c, r_ring = d.coil, d.whiskers.ring_radius
+    phi = np.linspace(0, 2 * np.pi, 73)[:-1]
+    s = np.linspace(r_ring - c.length / 2, r_ring + c.length / 2, 9)
+    S, P = np.meshgrid(s, phi)
+    x, y = S.ravel(), (c.outer_diameter / 2 * np.sin(P)).ravel()
+    z = (d.coil_axis_z + c.outer_diameter / 2 * np.cos(P)).ravel()
+    b = math.radians(-tilt_deg)  # the same rotation as whisker.cad.reference._tilt
+    xr, zr = x - r_ring, z - d.pivot_z
+    return np.column_stack([r_ring + xr * math.cos(b) + zr * math.sin(b), y, d.pivot_z - xr * math.sin(b) + zr * math.cos(b)])
+
+
+def coil_reach(d: "Design", z_min: float = -math.inf, tilts: bool = True) -> float:
+    """Largest distance from the sensor axis that a coil reaches at heights >= z_min, over the full
+    swing (or at rest when tilts is False), mm; -inf when no part of the coil rises that high."""
+    theta = d.whiskers.max_deflection_deg
+    best = -math.inf
+    for t in (np.linspace(-theta, theta, SWING_SAMPLES) if tilts else [0.0]):
+        p = coil_surface_points(d, float(t))
+        p = p[p[:, 2] >= z_min]
+        if len(p):
+            best = max(best, float(np.max(np.hypot(p[:, 0], p[:, 1]))))
+    return best
+
+
+def coil_inner_chord_radius(d: "Design") -> float:
+    """rho: distance from the axis of a coil's inner face corners (its axis height, tangential
+    +-D/2 plane) at full inward swing (extension, tip out, coil in), mm.
+
+    Rotating the inner face's centre (R - L/2, z_axis) by the full deflection about the pivot
+    (R, z_pivot) brings it to R - (L/2) cos(theta) - (z_pivot - z_axis) sin(theta).
+    """
+    c, th = d.coil, math.radians(d.whiskers.max_deflection_deg)
+    return d.whiskers.ring_radius - c.length / 2 * math.cos(th) - (d.pivot_z - d.coil_axis_z) * math.sin(th)
+
+
+def crowding_bound_radius(d: "Design", count: int | None = None) -> float:
+    """Smallest ring radius at which neighbouring coils clear each other at full inward swing, mm.
+
+    Neighbours sit 360/N deg apart. At full inward swing (extension) their inner corners - the
+    inner face's edges at +-D/2 either side of the coil axis - are rho from the sensor axis
+    (:func:`coil_inner_chord_radius`). The chord between two neighbours' facing corners must leave
+    the print clearance c:
+
+        2 rho sin(pi/N) - D cos(pi/N) >= c,   rho = R - (L/2) cos(theta) - h sin(theta)
+
+    so R >= (c/2 + (D/2) cos(pi/N)) / sin(pi/N) + (L/2) cos(theta) + h sin(theta), with h the pivot's
+    height above the coil axis (D coil diameter, L coil length, theta the largest deflection). For
+    N = 2 the two coils face each other head on: their inner faces' lowest points must stay c apart.
+    """
+    n = count or d.whiskers.count
+    c, th = d.coil, math.radians(d.whiskers.max_deflection_deg)
+    clr = max(d.print.clearance, 0.05)
+    h = d.pivot_z - d.coil_axis_z
+    if n <= 1:
+        return 0.0
+    swing_in = c.length / 2 * math.cos(th) + h * math.sin(th)
+    if n == 2:  # the lowest point of each inner face, (R - L/2, z_axis - D/2), swung inwards
+        return clr / 2 + swing_in + c.outer_diameter / 2 * math.sin(th)
+    a = math.pi / n
+    return (clr / 2 + c.outer_diameter / 2 * math.cos(a)) / math.sin(a) + swing_in
+
+
+# ---- the rules --------------------------------------------------------------------------------
+
+def membrane_inscribed_radius(d: "Design", auto: frozenset = frozenset()) -> float:
+    """The seat's opening (membrane inscribed radius - seat ledge) must let every coil pass at rest
+    (the membrane goes in from above carrying its rods and coils) and clear, by the print clearance,
+    every part of a swinging coil that rises to the seat flange's underside; rounded up to 0.5 mm."""
+    clr = d.print.clearance
+    band = -(d.mount.flange_thickness + clr)
+    need = max(coil_reach(d, tilts=False), coil_reach(d, z_min=band)) + clr
+    return ceil_step(need + d.mount.seat_ledge, MEMBRANE_STEP_MM)
+
+
+def camera_distance(d: "Design", auto: frozenset = frozenset()) -> float:
+    """Keeps the marker ring the size it has in the authors' frames (camera.ring_radius_px), and so
+    their margin to the image edge at every ring radius: distance = R f / ring_radius_px; on a small
+    ring at least deep enough that the lens holder stays below the coil cavity."""
+    keep_scale = d.whiskers.ring_radius * d.camera.focal_length_px / d.camera.ring_radius_px
+    below_cavity = d.marker_z - mount_levels(d)["cylinder_bottom"]
+    return round(max(keep_scale, below_cavity), 3)
+
+
+def pour_diameter(d: "Design", auto: frozenset = frozenset()) -> float:
+    """The largest opening up to mold.max_pour_diameter that leaves print.min_wall between the pour
+    opening and the rod guides (the lid) and sockets (the whisker ring)."""
+    room = 2 * (d.whiskers.ring_radius - d.hole(d.whiskers.rod_diameter) / 2 - d.print.min_wall)
+    return floor_step(min(d.mold.max_pour_diameter, room), 0.001)
+
+
+def _mounting_hole_needs(d: "Design") -> float:
+    """Smallest bolt-circle radius at which every robot mounting hole keeps print.min_wall from the
+    camera board pocket, the flat-cable slot and the inner cone, mm."""
+    from shapely.geometry import LineString, Point, box
+
+    from whisker.design import DesignError
+
+    m, cam, w = d.mount, d.camera, d.print.min_wall
+    if m.mounting_hole_count == 0:
+        return 0.0
+    lv = mount_levels(d)
+    hole_r = d.hole(m.mounting_hole_diameter) / 2
+    bw, bh = d.hole(cam.board_width) / 2, d.hole(cam.board_height) / 2
+    far = 1000.0
+    keep_out = (box(-bw, -bh, bw, bh)
+                .union(box(-m.ribbon_width / 2, -far, m.ribbon_width / 2, 0.0))
+                .union(Point(0, 0).buffer(cone_radius_at(d, lv["bottom"] + m.mounting_hole_depth), 128))
+                .buffer(hole_r + w, 32))
+    need = 0.0
+    for a in mounting_hole_angles(d):
+        ray = LineString([(0, 0), (far * math.cos(math.radians(a)), far * math.sin(math.radians(a)))])
+        cut = ray.intersection(keep_out)
+        r = max((math.hypot(x, y) for g in getattr(cut, "geoms", [cut]) for x, y in g.coords), default=0.0)
+        if r > far / 2:
+            raise DesignError(f"mount.mounting_hole_count = {m.mounting_hole_count} puts a robot mounting hole at "
+                              f"{a % 360:g} deg, in the camera's flat-cable slot (-y): choose another count")
+        need = max(need, r)
+    return need
+
+
+def mount_outer_radius(d: "Design", auto: frozenset = frozenset()) -> float:
+    """The smallest whole-millimetre radius that leaves print.min_wall outside every inner feature:
+    magnet pockets, LED channel, membrane seat, camera board pocket and the robot mounting holes."""
+    w, m = d.print.min_wall, d.mount
+    seat = (d.membrane.inscribed_radius + d.print.clearance) / math.cos(math.pi / d.membrane.sides)
+    board = math.hypot(d.hole(d.camera.board_width), d.hole(d.camera.board_height)) / 2
+    holes = 0.0
+    if m.mounting_hole_count:
+        bolt = _mounting_hole_needs(d) if "mount.mounting_bolt_radius" in auto else m.mounting_bolt_radius
+        holes = bolt + d.hole(m.mounting_hole_diameter) / 2
+    need = max(pocket_outer_radius(d), led_outer_radius(d), seat, board, holes) + w
+    return ceil_step(need, MOUNT_STEP_MM)
+
+
+def mounting_bolt_radius(d: "Design", auto: frozenset = frozenset()) -> float:
+    """As far out as the outer wall allows (print.min_wall outside each hole), so the holes keep
+    the most material to the camera pocket; rounded down to 0.1 mm."""
+    m = d.mount
+    return round(max(_mounting_hole_needs(d) if m.mounting_hole_count else 0.0,
+                     floor_step(m.outer_radius - d.hole(m.mounting_hole_diameter) / 2 - d.print.min_wall, 0.1)), 3)
+
+
+def cable_exit_count(d: "Design", auto: frozenset = frozenset()) -> int:
+    """One exit per four coils (eight 0.1 mm leads), so no lead runs more than a quarter turn round."""
+    return max(1, math.ceil(d.whiskers.count / 4))
+
+
+@dataclass(frozen=True)
+class Rule:
+    section: str
+    key: str
+    rule: Callable[["Design", frozenset], float]
+    placeholder: float  # stands in while earlier rules are resolved; never reaches a part
+
+    @property
+    def name(self) -> str:
+        return f"{self.section}.{self.key}"
+
+    @property
+    def reason(self) -> str:
+        return " ".join((self.rule.__doc__ or "").split())
+
+
+# In order: a rule may read the values of the rules before it. Each takes (design, names set to auto).
+RULES: tuple[Rule, ...] = (
+    Rule("membrane", "inscribed_radius", membrane_inscribed_radius, 10.0),
+    Rule("camera", "distance", camera_distance, 30.0),
+    Rule("mold", "pour_diameter", pour_diameter, 1.0),
+    Rule("mount", "cable_exit_count", cable_exit_count, 1),
+    Rule("mount", "outer_radius", mount_outer_radius, 500.0),
+    Rule("mount", "mounting_bolt_radius", mounting_bolt_radius, 1.0),
+)
+BY_NAME = {r.name: r for r in RULES}
+
+
+def resolve_auto(data: dict, validate: Callable[[dict], "Design"]) -> tuple[dict, dict[str, str]]:
+    """Replace every ``"auto"`` in a design dict by its rule's value.
+
+    ``validate`` turns a dict without ``"auto"`` into a Design (the rules read the design's
+    derived properties). Returns the resolved dict and, for each resolved name, its rule's reason.
+    """
+    import copy
+
+    out = copy.deepcopy(data)
+    auto = frozenset(r.name for r in RULES if isinstance(out.get(r.section), dict) and out[r.section].get(r.key) == "auto")
+    if not auto:
+        return out, {}
+    for r in RULES:
+        if r.name in auto:
+            out[r.section][r.key] = r.placeholder
+    for r in RULES:
+        if r.name in auto:
+            value = r.rule(validate(out), auto)
+            if not math.isfinite(value) or value <= 0:
+                from whisker.design import DesignError
+                raise DesignError(f"{r.name} = \"auto\": its rule gives {value:.4g}, so this design has no room "
+                                  f"for it ({r.reason})")
+            out[r.section][r.key] = value
+    return out, {name: BY_NAME[name].reason for name in sorted(auto)}
