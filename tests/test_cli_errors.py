@@ -276,6 +276,10 @@ def test_design_show_and_coil_report_load_the_same_way():
         c1, _, e1 = run("design", "show", "--set", over)
         c2, _, e2 = run("coil", "report", "--set", over)
         assert c1 == c2 == 2 and one_line(e1) == one_line(e2)
+    for value in ("1e308", "nan", "-0.1", "abc"):       # a coil shortcut is the same --set
+        c1, _, e1 = run("design", "show", "--set", f"coil.wire_diameter={value}")
+        c2, _, e2 = run("coil", "report", "--wire", value)
+        assert c1 == c2 == 2 and one_line(e1) == one_line(e2)
 
 
 # -- a full disk ------------------------------------------------------------------------------------------------

@@ -25,6 +25,11 @@ _SHORTCUTS = {
 }
 
 
+#: a shortcut's value is passed on as typed, so the design model (pydantic) parses and bounds it
+#: exactly as it does `--set section.key=VALUE` (and `design show`)
+DESIGN_VALUE = click.STRING
+
+
 def coil_options(f):
     """Design options plus coil shortcuts (--wire, --turns, --fill ...) applied as overrides.
 
@@ -34,26 +39,26 @@ def coil_options(f):
     """
     inner = design_options(_turns_max(f))
 
-    @click.option("--wire", type=float, help="Bare wire diameter, mm (coil.wire_diameter).")
+    @click.option("--wire", type=DESIGN_VALUE, help="Bare wire diameter, mm (coil.wire_diameter).")
     @click.option("--enamel-grade", type=click.IntRange(1, 3), help="IEC 60317 enamel grade 1-3 (winding.enamel_grade).")
-    @click.option("--inner", type=float, help="Coil bore diameter, mm (coil.inner_diameter).")
-    @click.option("--outer", type=float, help="Coil outer diameter, mm (coil.outer_diameter).")
-    @click.option("--length", type=float, help="Coil length along its axis, mm (coil.length).")
+    @click.option("--inner", type=DESIGN_VALUE, help="Coil bore diameter, mm (coil.inner_diameter).")
+    @click.option("--outer", type=DESIGN_VALUE, help="Coil outer diameter, mm (coil.outer_diameter).")
+    @click.option("--length", type=DESIGN_VALUE, help="Coil length along its axis, mm (coil.length).")
     @click.option("--turns", help="Turns (coil.turns), or 'max' for as many as fit at the fill factor.")
-    @click.option("--fill", type=float, help="Copper fill factor (winding.fill_factor).")
-    @click.option("--resistance", type=float, help="Measured coil resistance at 20 C, ohm (coil.resistance).")
-    @click.option("--supply", type=float, help="Supply into the H-bridge, V (driver.supply_voltage).")
+    @click.option("--fill", type=DESIGN_VALUE, help="Copper fill factor (winding.fill_factor).")
+    @click.option("--resistance", type=DESIGN_VALUE, help="Measured coil resistance at 20 C, ohm (coil.resistance).")
+    @click.option("--supply", type=DESIGN_VALUE, help="Supply into the H-bridge, V (driver.supply_voltage).")
     @click.option("--driver", "driver_name", type=click.Choice(["L298N", "TB6612FNG", "DRV8833"]),
                   help="H-bridge (driver.type).")
-    @click.option("--gap", type=float, help="Coil-magnet gap at rest, mm (actuation.gap).")
-    @click.option("--stiffness", type=float, help="Membrane rotational stiffness, N*mm/rad.")
+    @click.option("--gap", type=DESIGN_VALUE, help="Coil-magnet gap at rest, mm (actuation.gap).")
+    @click.option("--stiffness", type=DESIGN_VALUE, help="Membrane rotational stiffness, N*mm/rad.")
     @functools.wraps(inner)
     def wrapper(*args, overrides=(), turns=None, **kwargs):
         over = list(overrides)
         for key, param in _SHORTCUTS.items():
             v = kwargs.pop(key, None)
-            if v is not None:
-                over.append(f"{param}={v!r}" if isinstance(v, str) else f"{param}={v!r}")
+            if v is not None:   # the text as typed: the design model parses and bounds it, as for --set
+                over.append(f"{param}={v!r}" if key == "driver_name" else f"{param}={v}")
         if turns is not None and turns != "max":
             over.append(f"coil.turns={turns}")
         return inner(*args, overrides=tuple(over), turns_max=turns == "max", **kwargs)
