@@ -60,22 +60,17 @@ class LazyGroup(click.Group):
                 raise
             if isinstance(err, OSError) and err.errno == errno.EPIPE:
                 raise                    # the reader went away (| head): click exits quietly
+            if isinstance(err, ModuleNotFoundError):
+                # A library from an extra that is not installed: one line naming the pip install, exit 1.
+                from whisker.extras import missing_extra_message
+
+                message = missing_extra_message(err, f"whisker {ctx.invoked_subcommand or ''}".strip())
+                if message is not None:
+                    click.echo(message, err=True)
+                    ctx.exit(1)
             code, line = explain(err)
             click.echo(f"{_command_path(self, ctx, tokens)}: {line}", err=True)
             ctx.exit(code)
-
-    def invoke(self, ctx):
-        # A library from an extra that is not installed: one line naming the pip install, exit 1.
-        try:
-            return super().invoke(ctx)
-        except ModuleNotFoundError as err:
-            from whisker.extras import missing_extra_message
-
-            message = missing_extra_message(err, f"whisker {ctx.invoked_subcommand or ''}".strip())
-            if message is None:
-                raise
-            click.echo(message, err=True)
-            ctx.exit(1)
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
