@@ -357,6 +357,13 @@ class Design(_Section):
                 f"above the coil ({self.coil.drop:.3g} mm)")
         if self.whiskers.rod_diameter >= self.coil.outer_diameter:
             raise ValueError("whiskers.rod_diameter must be smaller than coil.outer_diameter")
+        from whisker.coil import enamel_overall_diameter_mm  # the same wire model as `whisker coil report`
+
+        wire = enamel_overall_diameter_mm(self.coil.wire_diameter, self.winding.enamel_grade)
+        depth = (self.coil.outer_diameter - self.coil.inner_diameter) / 2
+        if wire > min(self.coil.length, depth):
+            raise ValueError(f"coil.wire_diameter: one enamelled wire ({wire:.3g} mm) does not fit the winding "
+                             f"window (coil.length {self.coil.length:g} mm, radial depth {depth:.3g} mm)")
         return self
 
     # ---- derived geometry (mm) -------------------------------------------------------------
