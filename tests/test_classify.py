@@ -97,16 +97,14 @@ def test_saved_model_roundtrip_and_versions(trained):
 
 
 def test_version_mismatch_warns(trained, tmp_path):
-    import joblib
-
     _, path = trained
-    bundle = joblib.load(path)
+    bundle = C.read_bundle(path)
     bundle["versions"]["scikit-learn"] = "0.0.1"
-    joblib.dump(bundle, tmp_path / "old.joblib")
+    C.write_bundle(tmp_path / "old.joblib", bundle)
     with pytest.warns(UserWarning, match="trained with scikit-learn 0.0.1"):
         C.load_model(tmp_path / "old.joblib")
     (tmp_path / "junk.joblib").write_bytes(b"not a model")
-    with pytest.raises(Exception):
+    with pytest.raises(DatasetError, match="not a whisker classify model"):
         C.load_model(tmp_path / "junk.joblib")
     with pytest.raises(DatasetError, match="no such model"):
         C.load_model(tmp_path / "missing.joblib")

@@ -284,14 +284,14 @@ def test_default_design_slices_every_printable_part(default_build, tmp_path):
     report = _check_print_cli(out)
     manifest = load_manifest(out)
     printable = {n for n, p in manifest["parts"].items() if p.get("printable")}
-    assert printable == {*SENSOR_PARTS, "tolerance_coupon"}
+    assert printable == {*SENSOR_PARTS, *pc.CALIBRATION_PARTS}
     assert set(report["parts"]) == printable and report["summary"]["all_ok"]
     for name in printable:
         _assert_sliced(report["parts"][name])
         entry = manifest["parts"][name]["print"]
         assert entry["ok"] and entry["layers"] > 0 and (out / entry["gcode"]).exists()
     s = report["summary"]
-    assert s["sensor_parts"] == list(SENSOR_PARTS) and s["calibration_parts"] == ["tolerance_coupon"]
+    assert s["sensor_parts"] == list(SENSOR_PARTS) and s["calibration_parts"] == sorted(pc.CALIBRATION_PARTS)
     assert s["total_filament_g"] == pytest.approx(
         sum(report["parts"][n]["gcode"]["filament_g"] for n in SENSOR_PARTS), abs=0.01)
     assert manifest["print"]["all_ok"] and manifest["print"]["total_time_s"] == s["total_time_s"]

@@ -92,6 +92,7 @@ def test_crowding_bound_formula():
     ("mount.cable_exit_count=2.5", "mount.cable_exit_count"),
     ("coil.length=1e308", "coil.length"),
     ("mold.pour_diameter=\"big\"", "mold.pour_diameter"),
+    ("coil.wire_diameter=5", "coil.wire_diameter"),  # `coil report` refuses it too (one wire does not fit)
 ])
 def test_absurd_values_are_refused_by_the_design_model(override, named):
     with pytest.raises(DesignError) as err:

@@ -11,7 +11,7 @@ import trimesh
 
 from whisker.design import Design
 
-from . import adapter, bobbin, coupon, cover, mold, mount, reference, ring, winding_jig
+from . import adapter, bobbin, board_holder, coupon, cover, mold, mount, reference, ring, winding_jig
 
 
 @dataclass(frozen=True)
@@ -39,6 +39,7 @@ PARTS: tuple[PartSpec, ...] = (
              "coil winding arbor for a hand drill: bobbin pocket, a flag and a magnet per turn", flip_to_print=True),
     PartSpec("tolerance_coupon", coupon.tolerance_coupon, True,
              "print-tolerance coupon: rod holes and magnet pockets at print.coupon_clearances, labelled"),
+    PartSpec("board_holder", board_holder.board_holder, True, "lens calibration: holds a ChArUco patch at the marker plane", flip_to_print=True),
     PartSpec("bobbin", bobbin.bobbin, False,
              "coil former, whisker 0: resin (MSLA) print, not sliced here; rod tab, core, flange"),
     PartSpec("membrane", reference.membrane, False, "cast Ecoflex membrane (reference, not printed)"),

@@ -56,7 +56,7 @@ COARSE_ARGS = ("--layer-height", "0.3", "--first-layer-height", "0.3", "--perime
                "--top-solid-layers", "1", "--bottom-solid-layers", "1", "--fill-density", "0%", "--skirts", "0")
 SLICE_TIMEOUT_S = 600
 # Printed once to find print.clearance, not part of a sensor: listed, not counted in the sensor total.
-CALIBRATION_PARTS = frozenset({"tolerance_coupon"})
+CALIBRATION_PARTS = frozenset({"tolerance_coupon", "board_holder"})
 
 
 class ToolMissing(RuntimeError):

@@ -31,7 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from whisker.dataset import (PEER_SCALE, DatasetError, WhiskerDataset, as_samples, augment_rotations)
+from whisker.dataset import (PEER_SCALE, DatasetError, WhiskerDataset, as_samples, augment_rotations,
+                             check_plausible)
 
 PROTOCOLS = ("paper", "random", "random+rot", "trial", "trial+rot", "pose", "pose+rot")
 PAPER_ACCURACY = 0.9917
@@ -40,7 +41,11 @@ PAPER_ACCURACY = 0.9917
 PAPER_PARAMS = dict(hidden=32, epochs=10, lr=0.01, batch_size=16, scale=PEER_SCALE)
 """The paper's MLP: 32 ReLU units, Adam lr 0.01, 10 epochs, batch 16 (notebook), inputs / 229."""
 
-MODEL_FORMAT = 1
+MODEL_FORMAT = 2
+"""Model file format: 2 = a dict with the model, its classes, version info and FEATURE_LAYOUT."""
+FEATURE_LAYOUT = "records x whiskers x (dx_px, dy_px), flattened in that order"
+_BUNDLE_KEYS = {"model": object, "classes": list, "n_records": int, "n_whiskers": int, "versions": dict,
+                "feature_layout": str}
 
 
 def _scale(X, scale=PEER_SCALE):
@@ -89,6 +94,24 @@ def _stratified_pick(ds: WhiskerDataset, rng, test_size: float) -> np.ndarray:
     return test
 
 
+def check_classes(ds: WhiskerDataset) -> None:
+    """A classifier needs two objects or more."""
+    if len(ds.classes) < 2:
+        raise DatasetError(f"{len(ds.classes)} object(s) ({', '.join(map(str, ds.classes)) or 'none'}): "
+                           "a classifier needs at least 2; add another object's samples")
+
+
+def _check_sides(ds, train, test, protocol: str) -> None:
+    """Every object must be on both sides of the split, or its accuracy means nothing."""
+    for side, part in (("training", train), ("test", test)):
+        missing = [c for c in ds.classes if not np.any(part.y == c)]
+        if missing:
+            counts = {str(c): int(np.sum(ds.y == c)) for c in missing}
+            raise DatasetError(f"protocol {protocol!r} leaves no {side} sample of object(s) "
+                               f"{', '.join(f'{c} ({n} samples)' for c, n in counts.items())}; record more "
+                               "samples of them or use another protocol")
+
+
 def split(ds: WhiskerDataset, protocol: str, seed: int = 0, test_size: float = 0.3
           ) -> tuple[WhiskerDataset, WhiskerDataset]:
     """(train, test) under one of `PROTOCOLS` (see module doc). ``ds`` holds recorded samples."""
@@ -98,10 +121,12 @@ def split(ds: WhiskerDataset, protocol: str, seed: int = 0, test_size: float = 0
         raise ValueError(f"test_size must be in (0, 1), got {test_size}")
     if (ds.rotation != 0).any():
         raise DatasetError("split the recorded samples; the protocols add the rotated copies")
+    check_classes(ds)
     rng = np.random.default_rng(seed)
     if protocol == "paper":
         aug = augment_rotations(ds)
         test = _stratified_pick(aug, rng, test_size)
+        _check_sides(aug, aug.subset(~test), aug.subset(test), protocol)
         return aug.subset(~test), aug.subset(test)
     unit, _, rot = protocol.partition("+")
     if unit == "random":
@@ -131,6 +156,7 @@ def split(ds: WhiskerDataset, protocol: str, seed: int = 0, test_size: float = 0
             arc = (rng.integers(n_pose) + np.arange(k)) % n_pose
             test |= m & np.isin(ds.pose, arc)
     train, held = ds.subset(~test), ds.subset(test)
+    _check_sides(ds, train, held, protocol)
     if rot:
         return augment_rotations(train), augment_rotations(held)
     return train, held
@@ -247,32 +273,79 @@ def versions() -> dict:
             "joblib": joblib.__version__, "whisker": getattr(whisker, "__version__", "unknown")}
 
 
+MODEL_MAGIC = b"WHISKER-CLASSIFY-MODEL"
+
+
 def save_model(path, model, ds: WhiskerDataset, info: dict) -> Path:
-    """joblib file: {'model', 'classes', 'n_records', 'n_whiskers', 'sense', 'versions', ...}, atomic."""
+    """Model file: a header line (magic, format, SHA-256 of the rest) then a joblib dict {'model',
+    'classes', 'n_records', 'n_whiskers', 'sense', 'feature_layout', 'versions', ...}; atomic."""
+    bundle = {"format": MODEL_FORMAT, "model": model, "classes": [str(c) for c in model.classes_],
+              "n_records": ds.n_records, "n_whiskers": ds.n_whiskers, "sense": ds.sense,
+              "feature_layout": FEATURE_LAYOUT, "versions": versions(), **info}
+    return write_bundle(path, bundle)
+
+
+def write_bundle(path, bundle: dict) -> Path:
+    """Write a model dict with its header line (see save_model), atomically."""
+    import hashlib
+
     import joblib
 
     from whisker.files import atomic_write_bytes
 
-    bundle = {"format": MODEL_FORMAT, "model": model, "classes": [str(c) for c in model.classes_],
-              "n_records": ds.n_records, "n_whiskers": ds.n_whiskers, "sense": ds.sense,
-              "versions": versions(), **info}
     buf = io.BytesIO()
     joblib.dump(bundle, buf)
-    return atomic_write_bytes(path, buf.getvalue())
+    payload = buf.getvalue()
+    head = MODEL_MAGIC + f" {MODEL_FORMAT} sha256={hashlib.sha256(payload).hexdigest()}\n".encode()
+    return atomic_write_bytes(path, head + payload)
 
 
-def load_model(path) -> dict:
-    """Load a model file; warns (naming both) when the library versions differ from training."""
+def read_bundle(path) -> dict:
+    """The model dict of a file written by write_bundle. The header is checked before anything is
+    unpickled: a file that is not ours, or one changed since it was written, is refused."""
+    import hashlib
+
     import joblib
 
     path = Path(path)
     if not path.is_file():
         raise DatasetError(f"{path}: no such model file")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # our own, clearer message follows
-        bundle = joblib.load(path)
+    raw = path.read_bytes()
+    head, nl, payload = raw.partition(b"\n")
+    parts = head.split(b" ")
+    if not nl or len(parts) != 3 or parts[0] != MODEL_MAGIC or not parts[2].startswith(b"sha256="):
+        raise DatasetError(f"{path}: not a whisker classify model (no model header); train one with "
+                           "`whisker classify train`")
+    if parts[1] != str(MODEL_FORMAT).encode():
+        raise DatasetError(f"{path}: model file format {parts[1].decode(errors='replace')!r}, this version reads "
+                           f"{MODEL_FORMAT}; retrain it with `whisker classify train`")
+    if hashlib.sha256(payload).hexdigest().encode() != parts[2][len(b"sha256="):]:
+        raise DatasetError(f"{path}: damaged whisker classify model (its checksum does not match: truncated or "
+                           "changed since it was written); retrain it or restore a copy")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # our own, clearer message follows
+            return joblib.load(io.BytesIO(payload))
+    except Exception as err:  # written by us but unreadable here (e.g. another library version)
+        raise DatasetError(f"{path}: cannot read this whisker classify model ({type(err).__name__}: "
+                           f"{' '.join(str(err).split())[:120]}); retrain it") from None
+
+
+def load_model(path) -> dict:
+    """Load a model file (header, checksum, fields and a trial prediction checked); warns (naming
+    both) when the library versions differ from training."""
+    bundle = read_bundle(path)
     if not isinstance(bundle, dict) or bundle.get("format") != MODEL_FORMAT:
         raise DatasetError(f"{path}: not a whisker classify model (format {MODEL_FORMAT})")
+    bad = [k for k, t in _BUNDLE_KEYS.items() if not isinstance(bundle.get(k), t)]
+    if bad or bundle["feature_layout"] != FEATURE_LAYOUT or not hasattr(bundle["model"], "predict_proba") \
+            or not 1 <= bundle["n_whiskers"] <= 64 or not 1 <= bundle["n_records"] <= 10000:
+        raise DatasetError(f"{path}: damaged whisker classify model (fields {bad or 'feature layout/sizes'}); "
+                           "retrain it with `whisker classify train`")
+    try:
+        bundle["model"].predict_proba(np.zeros((1, bundle["n_records"] * bundle["n_whiskers"] * 2)))
+    except Exception as err:
+        raise DatasetError(f"{path}: the model in it does not predict ({type(err).__name__}); retrain it") from None
     now = versions()
     diff = {k: (v, now.get(k)) for k, v in bundle["versions"].items()
             if k in ("scikit-learn", "numpy") and now.get(k) != v}
@@ -298,6 +371,9 @@ def predict(bundle: dict, X, valid=None) -> tuple[np.ndarray, np.ndarray]:
             s, r, w = (int(v) for v in np.argwhere(~valid)[0])
             raise DatasetError(f"sample {s}, record {r}: whisker {w} was not tracked (valid = 0); "
                                "impute it explicitly or drop the sample")
+    limit = bundle.get("feature_limit_px")
+    if isinstance(limit, (int, float)) and limit > 0:
+        check_plausible(X, float(limit), "input")
     flat = X.reshape(len(X), -1)
     model = bundle["model"]
     return model.predict(flat), model.predict_proba(flat)

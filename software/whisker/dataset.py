@@ -171,6 +171,35 @@ def check_finite(X: np.ndarray, where: str = "") -> None:
                            + f" ({int(bad.sum())} bad values); fix the input or drop those samples")
 
 
+#: margin over the design's largest marker travel: tracking error, the marker off the focal plane
+FEATURE_LIMIT_MARGIN = 2.0
+
+
+def feature_limit_px(design) -> float:
+    """Largest plausible |dx| or |dy| of a marker, px: the marker's travel at the design's largest
+    tilt, l_l sin(whiskers.max_deflection_deg) / (mm per px), times FEATURE_LIMIT_MARGIN."""
+    import math
+
+    d = design.derived()
+    travel = d["l_l_mm"] * math.sin(math.radians(design.whiskers.max_deflection_deg)) / d["mm_per_px"]
+    return FEATURE_LIMIT_MARGIN * travel
+
+
+def check_plausible(X: np.ndarray, limit_px: float, where: str = "") -> None:
+    """Refuse values no whisker of the design can produce (|value| > limit_px), naming the first."""
+    check_finite(X, where)
+    X = np.asarray(X, dtype=float)
+    bad = np.abs(X) > limit_px
+    if bad.any():
+        pos = tuple(int(i) for i in np.argwhere(bad)[0])
+        what = (f"sample {pos[0]}, record {pos[1]}, whisker {pos[2]}, {'dy' if pos[3] else 'dx'}"
+                if X.ndim == 4 else f"position {pos}")
+        raise DatasetError(f"value {X[bad][0]:.6g} px at {what}" + (f" in {where}" if where else "")
+                           + f" is beyond the {limit_px:.3g} px a marker can move (the design's largest tilt, "
+                           f"x{FEATURE_LIMIT_MARGIN:g}); {int(bad.sum())} such value(s): wrong units or a "
+                           "corrupt file?")
+
+
 def as_samples(X, n_records: int, n_whiskers: int, where: str = "input") -> np.ndarray:
     """Flat rows (n, R*W*2) or (n, R, W, 2) -> checked float (n, R, W, 2).
 
@@ -300,15 +329,18 @@ def check_design(ds: WhiskerDataset, design) -> None:
 # -- loaders ------------------------------------------------------------------------------------
 def read_rows(path: Path) -> np.ndarray:
     rows = []
-    with open(path) as fh:
-        for lineno, line in enumerate(fh, 1):
-            line = line.strip().strip("[]")
-            if not line:
-                continue
-            try:
-                rows.append([float(v) for v in line.split(",")])
-            except ValueError as err:
-                raise DatasetError(f"{path}:{lineno}: not a row of numbers ({err})") from None
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise DatasetError(f"{path}: not a text CSV (byte {err.start} is not UTF-8)") from None
+    for lineno, line in enumerate(text.splitlines(), 1):
+        line = line.strip().strip("[]")
+        if not line:
+            continue
+        try:
+            rows.append([float(v) for v in line.split(",")])
+        except ValueError as err:
+            raise DatasetError(f"{path}:{lineno}: not a row of numbers ({err})") from None
     if not rows:
         raise DatasetError(f"{path}: no rows")
     widths = {len(r) for r in rows}
@@ -349,17 +381,24 @@ def load_csv_folder(path: str | Path, *, objects: Iterable[str] | None = None, n
     info = {}
     if (path / "dataset.json").is_file():
         try:
-            info = json.loads((path / "dataset.json").read_text())
-        except json.JSONDecodeError as err:
-            raise DatasetError(f"{path / 'dataset.json'}: not JSON ({err})") from None
+            info = json.loads((path / "dataset.json").read_text(encoding="utf-8"))
+        except ValueError as err:  # not JSON, or not UTF-8
+            raise DatasetError(f"{path / 'dataset.json'}: not JSON ({' '.join(str(err).split())})") from None
+        if not isinstance(info, dict):
+            raise DatasetError(f"{path / 'dataset.json'}: expected an object of settings, got {type(info).__name__}")
+        for key in ("n_whiskers", "trial_length", "trials_per_pose", "sense"):
+            v = info.get(key)
+            ok = {"n_whiskers": lambda x: 1 <= x <= 64, "sense": lambda x: x in (-1, 1)}.get(key, lambda x: 1 <= x <= 10 ** 6)
+            if v is not None and (not isinstance(v, int) or isinstance(v, bool) or not ok(v)):
+                raise DatasetError(f"{path / 'dataset.json'}: {key} = {v!r} is not a valid {key}")
     if n_whiskers is None:
-        n_whiskers = int(info.get("n_whiskers", design.whiskers.count if design is not None else 8))
+        n_whiskers = int(info.get("n_whiskers") or (design.whiskers.count if design is not None else 8))
     trial_length = trial_length if trial_length is not None else info.get("trial_length")
     trials_per_pose = trials_per_pose if trials_per_pose is not None else info.get("trials_per_pose")
     if trial_length and trials_per_pose:
         raise DatasetError(f"{path}: give trial_length (trial-major rows) or trials_per_pose (pose-major), not both")
     if sense is None:
-        sense = int(info["sense"]) if "sense" in info else (design_sense(design) if design is not None else 1)
+        sense = int(info["sense"]) if info.get("sense") is not None else (design_sense(design) if design is not None else 1)
     files = {p.stem: p for p in sorted(path.glob("*.csv"))}
     if not files:
         raise DatasetError(f"{path}: no .csv files")
@@ -462,13 +501,16 @@ def load_tracks(paths: str | Path | Sequence[str | Path], label: str | Sequence[
     parts, sense = [], None
     for p, lab in zip(paths, labels):
         p = Path(p)
-        with open(p, newline="") as fh:
-            reader = csv.DictReader(fh)
-            missing = [c for c in TRACKS_COLUMNS if c not in (reader.fieldnames or [])]
-            if missing:
-                raise DatasetError(f"{p}: missing column(s) {missing}; need {list(TRACKS_COLUMNS)} "
-                                   "(a tracks CSV from `whisker track`)")
-            rows = list(reader)
+        try:
+            with open(p, newline="", encoding="utf-8") as fh:
+                reader = csv.DictReader(fh)
+                missing = [c for c in TRACKS_COLUMNS if c not in (reader.fieldnames or [])]
+                if missing:
+                    raise DatasetError(f"{p}: missing column(s) {missing}; need {list(TRACKS_COLUMNS)} "
+                                       "(a tracks CSV from `whisker track`)")
+                rows = list(reader)
+        except (UnicodeDecodeError, csv.Error) as err:
+            raise DatasetError(f"{p}: not a text CSV ({' '.join(str(err).split())})") from None
         if not rows:
             raise DatasetError(f"{p}: no rows")
         try:
@@ -477,8 +519,11 @@ def load_tracks(paths: str | Path | Sequence[str | Path], label: str | Sequence[
             num = np.array([[float(r[c]) if r[c] not in ("", None) else np.nan
                              for c in ("x_px", "y_px", "dx_px", "dy_px")] for r in rows])
             ok = np.array([str(r["valid"]).strip().lower() in ("1", "true", "yes") for r in rows])
-        except ValueError as err:
+        except (ValueError, TypeError) as err:
             raise DatasetError(f"{p}: unreadable value ({err})") from None
+        if whisker.min() < 0 or whisker.max() >= 64:
+            raise DatasetError(f"{p}: whisker index {int(whisker.min() if whisker.min() < 0 else whisker.max())} "
+                               "is outside 0..63")
         n_w = int(whisker.max()) + 1
         if design is not None and n_w != design.whiskers.count:
             raise DatasetError(f"{p}: {n_w} whiskers, the design has {design.whiskers.count}")

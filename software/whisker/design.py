@@ -297,6 +297,10 @@ class Wiring(_Section):
     expander: Literal["none", "pca9685"] = Field(
         description="none: coils on Pi GPIO (2 per coil, <= 11 coils); pca9685: I2C PWM expander(s)")
     pca9685_address: int = Field(ge=0x40, le=0x6F, description="I2C address of the first PCA9685")
+    coil_order: tuple[int, ...] = Field((), description=(
+        "pin-map override (whisker calibrate wiring): coil_order[i] = pin-map channel driving whisker i; () = i"))
+    coil_polarity: tuple[int, ...] = Field((), description=(
+        "pin-map override: +1/-1 per whisker, -1 swaps that channel's forward/backward pins; () = all +1"))
 
 
 class Bom(_Section):
@@ -461,6 +465,13 @@ class Design(_Section):
                 f"above the coil ({self.coil.drop:.3g} mm)")
         if self.whiskers.rod_diameter >= self.coil.outer_diameter:
             raise ValueError("whiskers.rod_diameter must be smaller than coil.outer_diameter")
+        from whisker.coil import enamel_overall_diameter_mm  # the same wire model as `whisker coil report`
+
+        wire = enamel_overall_diameter_mm(self.coil.wire_diameter, self.winding.enamel_grade)
+        depth = (self.coil.outer_diameter - self.coil.inner_diameter) / 2
+        if wire > min(self.coil.length, depth):
+            raise ValueError(f"coil.wire_diameter: one enamelled wire ({wire:.3g} mm) does not fit the winding "
+                             f"window (coil.length {self.coil.length:g} mm, radial depth {depth:.3g} mm)")
         return self
 
     # ---- derived geometry (mm) -------------------------------------------------------------

@@ -23,9 +23,13 @@ def read_toml(path: str | Path, what: str, error: type[Exception] = ValueError) 
         import tomli as tomllib  # type: ignore[no-redef]
     path = Path(path)
     try:
-        return tomllib.loads(path.read_text())
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise error(f"{what} file {path} does not exist") from None
+    except IsADirectoryError:
+        raise error(f"{what} file {path} is a folder; give a TOML file") from None
+    except UnicodeDecodeError as err:
+        raise error(f"{what} file {path}: not UTF-8 text (byte {err.start}); save it as UTF-8 TOML") from None
     except tomllib.TOMLDecodeError as err:
         raise error(f"{what} file {path}: not valid TOML: {err}") from None
 

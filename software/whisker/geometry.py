@@ -95,11 +95,12 @@ def tilted_marker_xyz(design, tilt_deg, azimuth_deg=None) -> np.ndarray:
     return pivot_xyz(design) - design.l_l * axis
 
 
-def project(design, xyz_mm, mtx=None, dist=None) -> np.ndarray:
+def project(design, xyz_mm, mtx=None, dist=None, model: str = "standard") -> np.ndarray:
     """Pixel coordinates (M, 2) of sensor-frame points (M, 3) mm through the design's camera.
 
-    Pinhole: p_c = R (p - C), (u, v) = K (p_c / z_c). With `dist` (OpenCV's k1, k2, p1, p2[, k3 ...])
-    the lens distortion is applied by `cv2.projectPoints`. Points at or behind the camera raise.
+    Pinhole: p_c = R (p - C), (u, v) = K (p_c / z_c). With `dist` the lens distortion of `model`
+    (whisker.lens: "standard"/"rational" = OpenCV's k1, k2, p1, p2[, k3 ...] by `cv2.projectPoints`,
+    "fisheye" = k1..k4 by `cv2.fisheye.projectPoints`) is applied. Points at or behind the camera raise.
     """
     p = np.asarray(xyz_mm, dtype=float).reshape(-1, 3)
     if not np.all(np.isfinite(p)):
@@ -110,13 +111,13 @@ def project(design, xyz_mm, mtx=None, dist=None) -> np.ndarray:
     if np.any(pc[:, 2] <= 1e-9):
         raise ValueError("a point lies at or below the camera's optical centre (camera_z); it cannot be imaged")
     K = camera_matrix(design, mtx)
-    if dist is not None and np.any(np.asarray(dist, dtype=float) != 0):
+    if dist is not None and (model == "fisheye" or np.any(np.asarray(dist, dtype=float) != 0)):
         import cv2
 
+        from whisker.lens import Lens, project as lens_project
+
         rvec, _ = cv2.Rodrigues(R)
-        tvec = -R @ C
-        uv, _ = cv2.projectPoints(p.reshape(-1, 1, 3), rvec, tvec, K, np.asarray(dist, dtype=float).ravel())
-        return uv.reshape(-1, 2)
+        return lens_project(Lens(K, dist, model), p, rvec, -R @ C)
     x = pc[:, 0] / pc[:, 2]
     y = pc[:, 1] / pc[:, 2]
     return np.stack([K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]], axis=1)

@@ -172,7 +172,9 @@ def _scheme(design) -> tuple[str, int]:
 def pin_map(design) -> list[CoilChannel]:
     """One :class:`CoilChannel` per whisker, index i = whisker i (design.whisker_angles_deg order).
 
-    Coil i uses L298N module i // 2, channel "A" for even i and "B" for odd i. Raises
+    Coil i uses L298N module i // 2, channel "A" for even i and "B" for odd i, unless the design's
+    [wiring] coil_order / coil_polarity override (from `whisker calibrate wiring`) re-routes a whisker
+    to another channel or exchanges its pins (see :func:`apply_override`). Raises
     :class:`PinMapError` when the Pi (or the expander address space) cannot serve N coils.
     """
     n = design.whiskers.count
@@ -185,8 +187,9 @@ def pin_map(design) -> list[CoilChannel]:
                 f"has only {len(pins)} free (GPIO 2..27 minus I2C 2/3 and UART 14/15): at most "
                 f"{len(pins) // 2} coils; use a PCA9685 16-channel I2C PWM expander on GPIO 2/3 "
                 f"(--set wiring.expander=\"pca9685\", {expander_boards_needed(n)} board(s))")
-        return [CoilChannel(whisker=i, forward=pins[2 * i], backward=pins[2 * i + 1], enable=None,
-                            module=i // 2, channel="AB"[i % 2]) for i in range(n)]
+        return apply_override(design, [CoilChannel(whisker=i, forward=pins[2 * i], backward=pins[2 * i + 1],
+                                                    enable=None, module=i // 2, channel="AB"[i % 2])
+                                       for i in range(n)])
     if expander == "pca9685":
         boards = expander_boards_needed(n)
         last = address0 + boards - 1
@@ -195,10 +198,45 @@ def pin_map(design) -> list[CoilChannel]:
                 f"{n} coils need {boards} PCA9685 boards at I2C 0x{address0:02X}..0x{last:02X}, "
                 f"beyond 0x40..0x6F; lower wiring.pca9685_address or add a TCA9548A I2C multiplexer")
         per_board = PCA9685_CHANNELS // 2
-        return [CoilChannel(whisker=i, forward=2 * (i % per_board), backward=2 * (i % per_board) + 1,
-                            enable=None, module=i // 2, channel="AB"[i % 2], bus="pca9685",
-                            address=address0 + i // per_board) for i in range(n)]
+        return apply_override(design, [CoilChannel(whisker=i, forward=2 * (i % per_board),
+                                                    backward=2 * (i % per_board) + 1, enable=None,
+                                                    module=i // 2, channel="AB"[i % 2], bus="pca9685",
+                                                    address=address0 + i // per_board) for i in range(n)])
     raise PinMapError(f"wiring.expander must be \"none\" or \"pca9685\", got {expander!r}")
+
+
+def _override(design) -> tuple[list[int], list[int]] | None:
+    """(order, polarity) of the design's pin-map override ([wiring] coil_order / coil_polarity, written
+    by `whisker calibrate wiring`), or None when there is none. One-line PinMapError when malformed."""
+    wiring = getattr(design, "wiring", None)
+    order = list(getattr(wiring, "coil_order", ()) or ())
+    pol = list(getattr(wiring, "coil_polarity", ()) or ())
+    if not order and not pol:
+        return None
+    n = design.whiskers.count
+    order = order or list(range(n))
+    pol = pol or [1] * n
+    if sorted(order) != list(range(n)):
+        raise PinMapError(f"wiring.coil_order must be a permutation of 0..{n - 1} (one channel per whisker), got {order}")
+    if len(pol) != n or any(p not in (1, -1) for p in pol):
+        raise PinMapError(f"wiring.coil_polarity must be {n} values of +1 or -1, got {pol}")
+    return order, pol
+
+
+def apply_override(design, channels: list[CoilChannel]) -> list[CoilChannel]:
+    """The pin map with the design's override: whisker i takes channel coil_order[i]'s pins, forward and
+    backward exchanged where coil_polarity[i] = -1 (so a positive level still retracts whisker i)."""
+    ov = _override(design)
+    if ov is None:
+        return channels
+    order, pol = ov
+    out = []
+    for i, (j, p) in enumerate(zip(order, pol)):
+        c = channels[j]
+        fwd, bwd = (c.forward, c.backward) if p > 0 else (c.backward, c.forward)
+        out.append(CoilChannel(whisker=i, forward=fwd, backward=bwd, enable=c.enable, module=c.module,
+                               channel=c.channel, bus=c.bus, address=c.address))
+    return out
 
 
 def used_gpio(design) -> dict[int, str]:

@@ -263,7 +263,10 @@ def read_table(path) -> dict[str, list[str]]:
 
 
 def _floats(values) -> np.ndarray:
-    return np.array([float(v) if v not in ("", None) else np.nan for v in values], dtype=float)
+    """Numbers of a CSV column; empty and non-finite cells become NaN (a ValueError names a bad cell)."""
+    out = np.array([float(v) if v not in ("", None) else np.nan for v in values], dtype=float)
+    out[~np.isfinite(out)] = np.nan
+    return out
 
 
 @dataclass
@@ -312,26 +315,59 @@ class Session:
 
 
 def load_session(folder) -> Session:
-    """Read a session folder, complete or cut short by a crash (see the module doc)."""
+    """Read a session folder, complete or cut short by a crash (see the module doc).
+
+    A table that is not a session's (wrong columns, cells that are not numbers) raises
+    RecordingError naming the file; rows torn by a crash are dropped silently.
+    """
     folder = Path(folder)
     meta_path = folder / "metadata.json"
-    if not meta_path.exists():
+    if not meta_path.is_file():
         raise RecordingError(f"{folder} is not a recording session (no metadata.json)")
     try:
-        meta = json.loads(meta_path.read_text())
+        meta = json.loads(meta_path.read_text(encoding="utf-8"))
     except ValueError as err:
-        raise RecordingError(f"{meta_path}: unreadable metadata ({err})") from err
-    if meta.get("format") != FORMAT:
-        raise RecordingError(f"{folder}: unknown session format {meta.get('format')!r} (expected {FORMAT})")
-    n = int(meta["whiskers"])
-    fr = read_table(folder / "frames.csv")
+        raise RecordingError(f"{meta_path}: unreadable metadata ({' '.join(str(err).split())})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        got = meta.get("format") if isinstance(meta, dict) else type(meta).__name__
+        raise RecordingError(f"{folder}: unknown session format {got!r} (expected {FORMAT})")
+    n = meta.get("whiskers")
+    if not isinstance(n, int) or not 1 <= n <= 64:
+        raise RecordingError(f"{meta_path}: 'whiskers' must be a count 1..64 (got {n!r})")
+    try:
+        return _read_session(folder, meta, n)
+    except (ValueError, TypeError, IndexError, KeyError, OverflowError) as err:
+        raise RecordingError(f"{folder}: a table is not a session's ({' '.join(str(err).split())}); "
+                             "check frames.csv, tracks.csv and actuation.csv") from None
+
+
+#: columns a session's frame and track tables must have (when the table has a header at all); an
+#: unreadable actuation table counts as no actuation
+REQUIRED_COLUMNS = {
+    "frames.csv": ("frame", "time_s", "file"),
+    "tracks.csv": ("frame", "whisker", "dx_px", "dy_px", "valid", "theta_deg", "tip_x_mm", "tip_y_mm"),
+}
+
+
+def _table(folder: Path, name: str) -> dict[str, list[str]]:
+    """read_table, refusing a table whose header lacks a column the session needs."""
+    tab = read_table(folder / name)
+    missing = [c for c in REQUIRED_COLUMNS.get(name, ()) if tab and c not in tab]
+    if missing:
+        raise RecordingError(f"{folder / name}: missing column(s) {', '.join(missing)}; not a session table "
+                             "written by whisker record")
+    return tab
+
+
+def _read_session(folder: Path, meta: dict, n: int) -> Session:
+    fr = _table(folder, "frames.csv")
     idx = np.array([int(v) for v in fr.get("frame", [])], dtype=int)
     t = _floats(fr.get("time_s", []))
     files = list(fr.get("file", []))
     keep = np.array([(not f) or (folder / "frames" / f).exists() for f in files], dtype=bool)
     idx, t, files = idx[keep], t[keep], [f for f, k in zip(files, keep) if k]
 
-    tr = read_table(folder / "tracks.csv")
+    tr = _table(folder, "tracks.csv")
     tracks = {}
     if tr and tr.get("frame"):
         tf = np.array([int(v) for v in tr["frame"]], dtype=int)
@@ -347,6 +383,8 @@ def load_session(folder) -> Session:
                     arr[pos[f], w] = v
             tracks[col] = arr
     ac = read_table(folder / "actuation.csv")
+    if "time_s" not in ac or "phase" not in ac:
+        ac = {}           # unreadable: no actuation to align on (recplot names the trial)
     at = _floats(ac.get("time_s", []))
     req = np.array([_floats(ac.get(f"requested_{i}", [])) for i in range(n)]).T.reshape(len(at), n)
     app = np.array([_floats(ac.get(f"applied_{i}", [])) for i in range(n)]).T.reshape(len(at), n)

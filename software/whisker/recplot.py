@@ -23,6 +23,8 @@ import numpy as np
 
 from whisker.recording import Session, load_session
 
+#: most points of the common time grid (a day at 10 ms)
+MAX_GRID_POINTS = 10_000_000
 #: The paper's phase markers: actuation phase name -> label on the plot.
 PHASE_MARKS = {"retract": "(1) retract", "hold": "(2) arm up", "release": "(3) release"}
 UNITS = {"px": "marker displacement (px)", "mm": "tip displacement (mm)", "deg": "tilt theta (deg)"}
@@ -62,14 +64,36 @@ def _interp_valid(t_grid, t, y, max_gap_s):
     return out
 
 
-def align_time(session: Session, align: str = "retract") -> float:
-    """The alignment instant of a session, s: its first `align` command, else its first frame."""
+#: --align value that aligns every trial on its first frame instead of an actuation command
+ALIGN_FIRST_FRAME = "frame"
+
+
+def align_time(session: Session, align: str = "retract") -> float | None:
+    """The alignment instant of a session, s: its first `align` command (None when it has none), or
+    its first frame for align = "frame"."""
+    if align == ALIGN_FIRST_FRAME:
+        if len(session.frame_time_s) == 0:
+            raise ValueError(f"session {session.folder} has no frames")
+        return float(session.frame_time_s[0])
     for t, p in session.phase_times():
-        if p == align:
+        if p == align and np.isfinite(t):
             return float(t)
-    if len(session.frame_time_s) == 0:
-        raise ValueError(f"session {session.folder} has no frames")
-    return float(session.frame_time_s[0])
+    return None
+
+
+def _check_align(sessions: Sequence[Session], align: str) -> None:
+    """Refuse an alignment that is unknown, or that some trials cannot follow (naming them)."""
+    if align == ALIGN_FIRST_FRAME:
+        return
+    seen = sorted({p for s in sessions for _, p in s.phase_times()})
+    if align not in PHASE_MARKS and align not in seen:
+        raise ValueError(f"unknown --align {align!r}: use {ALIGN_FIRST_FRAME!r} (first frame) or an actuation "
+                         f"phase ({', '.join(sorted(set(PHASE_MARKS) | set(seen)))})")
+    missing = [str(s.folder) for s in sessions if align_time(s, align) is None]
+    if missing:
+        raise ValueError(f"no {align!r} command to align on in {len(missing)} trial(s): {', '.join(missing)} "
+                         "(empty or unreadable actuation.csv?); record them with actuation, or give "
+                         f"--align {ALIGN_FIRST_FRAME} to align every trial on its first frame")
 
 
 def fig8_data(sessions: Sequence[Session], *, quantity: str = "px", align: str = "retract",
@@ -93,6 +117,7 @@ def fig8_data(sessions: Sequence[Session], *, quantity: str = "px", align: str =
         if not s.tracks:
             raise ValueError(f"session {s.folder} has no tracks (recorded with --no-track?): "
                              "track it first or record with tracking")
+    _check_align(sessions, align)
     series, phases = [], {}
     intervals = []
     for s in sessions:
@@ -113,15 +138,20 @@ def fig8_data(sessions: Sequence[Session], *, quantity: str = "px", align: str =
     max_gap_s = 3.0 * dt_s if max_gap_s is None else float(max_gap_s)
     t_min = min(float(np.min(t)) for t, _ in series if len(t))
     t_max = max(float(np.max(t)) for t, _ in series if len(t))
-    steps = int(np.floor((t_max - t_min) / dt_s + 1e-9)) + 1
-    if steps > 1_000_000:
-        raise ValueError(f"fig8: {steps} grid points (dt_s={dt_s:g} s over {t_max - t_min:g} s); give a larger dt_s")
+    span = (t_max - t_min) / dt_s
+    if not span < MAX_GRID_POINTS:
+        raise ValueError(f"fig8: {span:.3g} grid points (dt_s={dt_s:g} s over {t_max - t_min:g} s), over "
+                         f"{MAX_GRID_POINTS:,}; give a larger --dt")
+    steps = int(np.floor(span + 1e-9)) + 1
     grid = t_min + dt_s * np.arange(steps)
     stack = np.full((len(series), steps, n), np.nan)
     for k, (t, d) in enumerate(series):
         for w in range(n):
             stack[k, :, w] = _interp_valid(grid, t, d[:, w], max_gap_s)
     count = np.sum(np.isfinite(stack), axis=0)
+    if not count.any():
+        raise ValueError(f"no valid point: every {quantity} value of the {len(sessions)} trial(s) is invalid, NaN "
+                         "or infinite (markers lost?); check the tracks (whisker track) before plotting")
     with np.errstate(all="ignore"):
         import warnings
 

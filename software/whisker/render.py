@@ -34,13 +34,14 @@ LED_BGR = (250.0, 250.0, 250.0)
 WIRE_BGR = (40.0, 45.0, 190.0)
 
 
-def marker_pixels(design, xyz_mm, *, mtx=None, dist=None) -> np.ndarray:
+def marker_pixels(design, xyz_mm, *, mtx=None, dist=None, model: str = "standard") -> np.ndarray:
     """Pixel centres (M, 2) of markers at sensor-frame positions `xyz_mm` (M, 3), mm.
 
     Pinhole from the design's camera (or the measured matrix `mtx`); `dist` adds OpenCV lens
-    distortion (k1, k2, p1, p2[, k3]). See `whisker.geometry.project`.
+    distortion of `model` ("standard"/"rational": k1, k2, p1, p2[, k3 ...]; "fisheye": k1..k4).
+    See `whisker.geometry.project`.
     """
-    return geometry.project(design, xyz_mm, mtx=mtx, dist=dist)
+    return geometry.project(design, xyz_mm, mtx=mtx, dist=dist, model=model)
 
 
 def marker_radius_px(design) -> float:

@@ -82,6 +82,7 @@ class TrackResult:
     message: str = ""
     detections: int = 0
     track_px: np.ndarray | None = None  # positions in the coordinates of the tracked (raw or remapped) frame
+    fit_refused: int = 0                # 'fit' method: valid markers whose disc fit was refused (kept their centroid)
 
     @property
     def all_valid(self) -> bool:
@@ -89,21 +90,16 @@ class TrackResult:
 
 
 def load_calibration(path) -> tuple[np.ndarray, np.ndarray]:
-    """(mtx, dist) from an .npz with arrays `mtx` (3x3) and `dist` (OpenCV distortion coefficients)."""
-    path = Path(path)
-    try:
-        with np.load(path) as z:
-            mtx = np.asarray(z["mtx"], dtype=float)
-            dist = np.asarray(z["dist"], dtype=float).ravel()
-    except FileNotFoundError:
-        raise ValueError(f"calibration file {path} does not exist") from None
-    except KeyError as err:
-        raise ValueError(f"calibration file {path} has no array {err}; it needs 'mtx' and 'dist'") from None
-    except Exception as err:  # zipfile/pickle errors: not an npz
-        raise ValueError(f"calibration file {path} is not a readable .npz ({type(err).__name__})") from None
-    if mtx.shape != (3, 3) or not np.all(np.isfinite(mtx)) or dist.size < 4 or not np.all(np.isfinite(dist)):
-        raise ValueError(f"calibration file {path}: mtx must be finite 3x3 and dist >= 4 finite coefficients")
-    return mtx, dist
+    """(mtx, dist) from a standard-model lens .npz (`whisker.lens.load_lens` reads every model).
+
+    A fisheye file is refused here (its 4 coefficients mean something else to cv2.undistortPoints).
+    """
+    from whisker.lens import load_lens
+
+    lens = load_lens(path)
+    if lens.fisheye:
+        raise ValueError(f"calibration file {path} is a fisheye-model lens; read it with whisker.lens.load_lens")
+    return lens.mtx, lens.dist
 
 
 def load_mask(mask, shape=None) -> np.ndarray:
@@ -276,15 +272,21 @@ class Tracker:
     """Track the N markers of a design in camera frames.
 
     design: the Design (whisker count, ring, camera, tracking section). method: one of METHODS.
-    calibration: a path to an .npz with `mtx`, `dist` (or a (mtx, dist) tuple) for lens
-    undistortion. undistort: "points" (track on the raw frame, undistort the centroids with
+    calibration: a lens for undistortion: a path to a lens .npz (`whisker calibrate camera`'s or the
+    authors'), a `whisker.lens.Lens`, or a (mtx, dist[, model]) tuple; standard, rational and
+    fisheye models. undistort: "points" (track on the raw frame, undistort the centroids with
     cv2.undistortPoints: exact and cheap) or "image" (remap every frame first, as the authors' code
     does). mask: region-of-interest image (path or array), nonzero = track here. k_source: "design"
     (k = design.mm_per_px) or "ring" (k = ring radius / measured rest radius, after calibrate()).
+    marker_radius_px: the markers' radius in the frame, px, as the blob detectors see it (equivalent
+    radius of the thresholded blob; measured on a rest frame with `whisker.rest_geometry.measure`);
+    default: the design's marker diameter / 2 / mm_per_px. edge_radius_px: the radius of the marker's
+    half-contrast edge (the disc fit's model, where `fit` starts); default: marker_radius_px.
     """
 
     def __init__(self, design, method: str = "roi", *, calibration=None, undistort: str = "points",
-                 mask=None, k_source: str = "design", threshold: int = REDNESS_THRESHOLD):
+                 mask=None, k_source: str = "design", threshold: int = REDNESS_THRESHOLD,
+                 marker_radius_px: float | None = None, edge_radius_px: float | None = None):
         if method not in METHODS:
             raise ValueError(f"unknown tracking method {method!r}; choose one of {', '.join(METHODS)}")
         if undistort not in ("points", "image"):
@@ -298,25 +300,30 @@ class Tracker:
         self.n = design.whiskers.count
         self.threshold = int(threshold)
         self.k_source = k_source
-        if calibration is None:
-            self.mtx, self.dist = None, None
-        elif isinstance(calibration, (str, Path)):
-            self.mtx, self.dist = load_calibration(calibration)
-        else:
-            self.mtx = geometry.camera_matrix(design, calibration[0])
-            self.dist = np.asarray(calibration[1], dtype=float).ravel()
+        from whisker.lens import as_lens
+
+        self.lens = as_lens(calibration)   # any lens model (whisker.lens): standard, rational, fisheye
+        self.mtx = None if self.lens is None else geometry.camera_matrix(design, self.lens.mtx)
+        self.dist = None if self.lens is None else self.lens.dist
         self.undistort = undistort if self.dist is not None else "none"
         self.mask = None if mask is None else load_mask(mask)
         self.shape = self.mask.shape if self.mask is not None else (design.camera.height_px, design.camera.width_px)
         self._maps = None
         k = design.mm_per_px
-        self.marker_r = design.coil.marker_diameter / 2.0 / k
+        if marker_radius_px is not None and not (math.isfinite(marker_radius_px) and 1.0 <= marker_radius_px <= 100.0):
+            raise ValueError(f"marker_radius_px must be 1..100 px, got {marker_radius_px}")
+        # the marker's radius in the frame: measured (whisker.rest_geometry) or the design's
+        self.marker_r = design.coil.marker_diameter / 2.0 / k if marker_radius_px is None else float(marker_radius_px)
+        if edge_radius_px is not None and not (math.isfinite(edge_radius_px) and 0.5 <= edge_radius_px <= 100.0):
+            raise ValueError(f"edge_radius_px must be 0.5..100 px, got {edge_radius_px}")
+        self.edge_r = self.marker_r if edge_radius_px is None else float(edge_radius_px)   # disc fit's start
         a0 = math.pi * self.marker_r ** 2
         self.area_range = (0.25 * a0, 4.0 * a0)
         # predicted rest positions in tracking coordinates (distorted unless frames are remapped)
         xyz = geometry.rest_marker_xyz(design)
         dist = self.dist if self.undistort == "points" else None
-        self.predicted = geometry.project(design, xyz, mtx=self.mtx, dist=dist)
+        self.predicted = geometry.project(design, xyz, mtx=self.mtx, dist=dist,
+                                          model=self.lens.model if self.lens is not None else "standard")
         if self.n > 1:
             dd = np.hypot(*(self.predicted[:, None, :] - self.predicted[None, :, :]).transpose(2, 0, 1))
             self.spacing = float(np.min(dd[~np.eye(self.n, dtype=bool)]))
@@ -333,6 +340,7 @@ class Tracker:
         self._diag = np.eye(self.n, dtype=bool)
         self._area0 = self._design_area()
         self._fit_geom = None
+        self.last_fit = (np.zeros(0), np.zeros(0, bool))
         self.baseline: _Baseline | None = None
         self._last = np.full((self.n, 2), np.nan)
 
@@ -342,8 +350,10 @@ class Tracker:
             import cv2
 
             if self._maps is None:
+                from whisker.lens import undistort_maps
+
                 h, w = img.shape[:2]
-                self._maps = cv2.initUndistortRectifyMap(self.mtx, self.dist, None, self.mtx, (w, h), cv2.CV_16SC2)
+                self._maps = undistort_maps(self.lens, (w, h), self.mtx)
             if self.mask is not None:
                 img = cv2.bitwise_and(img, img, mask=self.mask)
             return cv2.remap(img, *self._maps, cv2.INTER_LINEAR), None
@@ -354,13 +364,12 @@ class Tracker:
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
         if self.undistort != "points" or len(xy) == 0:
             return xy.copy()
-        import cv2
+        from whisker.lens import undistort_points
 
         out = np.full_like(xy, np.nan)
         ok = np.all(np.isfinite(xy), axis=1)
         if ok.any():
-            und = cv2.undistortPoints(xy[ok].reshape(-1, 1, 2), self.mtx, self.dist, P=self.mtx)
-            out[ok] = und.reshape(-1, 2)
+            out[ok] = undistort_points(self.lens, xy[ok], P=self.mtx)
         return out
 
     @property
@@ -537,6 +546,7 @@ class Tracker:
         c = np.rint(xy).astype(int)
         ok = (c[:, 0] >= hw) & (c[:, 1] >= hw) & (c[:, 0] < w - hw) & (c[:, 1] < h - hw)
         if not ok.any():
+            self.last_fit = (np.full(len(xy), np.nan), np.zeros(len(xy), bool))
             return xy
         disc = self._disc > 0
         if self._fit_geom is None:
@@ -557,7 +567,7 @@ class Tracker:
         a = R[:, core].mean(axis=1) - b
         x0 = xy[ok, 0] - cs[:, 0]
         y0 = xy[ok, 1] - cs[:, 1]
-        rho = np.full(len(cs), self.marker_r)
+        rho = np.full(len(cs), self.edge_r)
         s = np.full(len(cs), 0.9)
         J = np.empty(R.shape + (6,))
         try:
@@ -581,6 +591,7 @@ class Tracker:
                 rho, a, b = rho + step[:, 2], a + step[:, 3], b + step[:, 4]
                 s = np.clip(s + step[:, 5], 0.3, 5.0)
         except np.linalg.LinAlgError:
+            self.last_fit = (np.full(len(xy), np.nan), np.zeros(len(xy), bool))
             return xy
         new = np.stack([cs[:, 0] + x0, cs[:, 1] + y0], axis=1)
         good = (full & np.all(np.isfinite(new), axis=1) & (np.hypot(*(new - xy[ok]).T) < 1.0)
@@ -588,6 +599,11 @@ class Tracker:
         out = xy.copy()
         sel = np.flatnonzero(ok)[good]
         out[sel] = new[good]
+        radius = np.full(len(xy), np.nan)
+        radius[sel] = rho[good]
+        accepted = np.zeros(len(xy), bool)
+        accepted[sel] = True
+        self.last_fit = (radius, accepted)   # fitted disc radius (px) and which markers took the fit
         return out
 
     def _roi(self, img, mask, ref):
@@ -676,8 +692,10 @@ class Tracker:
                 ref = np.where(np.isfinite(ref), ref, self._initial_refs(det))
             pos, status = self._identify(det, ref, area_ref)
         valid = np.array([s == "ok" for s in status]) & ~np.isnan(pos).any(axis=1)
+        refused = 0
         if self.method == "fit" and valid.any():
             pos[valid] = self._refine(img, mask, pos[valid])
+            refused = int(np.sum(~self.last_fit[1]))
         self._last[valid] = pos[valid]
         out = self.to_output(pos)
         out[~valid] = np.nan
@@ -688,7 +706,7 @@ class Tracker:
             dx = dy = np.full(self.n, np.nan)
         track_px = pos.copy()
         track_px[~valid] = np.nan
-        return TrackResult(out, valid, status, dx, dy, self.method, "", ndet, track_px)
+        return TrackResult(out, valid, status, dx, dy, self.method, "", ndet, track_px, refused)
 
     def deflection(self, result: TrackResult, model: str = "paper"):
         """Geometry of a TrackResult: `whisker.geometry.deflection` with this tracker's k."""

@@ -41,7 +41,7 @@ def _mlp_options(f):
 
 
 def _load(data, objects, design):
-    from whisker.dataset import PAPER_OBJECTS, DatasetError, check_design, load
+    from whisker.dataset import PAPER_OBJECTS, DatasetError, check_design, check_plausible, feature_limit_px, load
 
     data = data or os.environ.get("WHISKER_PEER_DATA")
     if not data:
@@ -52,6 +52,7 @@ def _load(data, objects, design):
     try:
         ds = load(data, names, design)
         check_design(ds, design)
+        check_plausible(ds.X, feature_limit_px(design), str(data))
     except (DatasetError, OSError) as err:
         fail(f"dataset refused: {err}")
     return ds
@@ -86,6 +87,7 @@ def train(design, data, objects, hidden, epochs, lr, batch_size, protocol, seed,
     ds = _load(data, objects, design)
     params = dict(hidden=hidden, epochs=epochs, lr=lr, batch_size=batch_size, scale=ds.meta.get("scale") or C.PEER_SCALE)
     try:
+        C.check_classes(ds)
         if all_data:
             if protocol not in C.PROTOCOLS:
                 raise ValueError(f"unknown protocol {protocol!r}; choose from {', '.join(C.PROTOCOLS)}")
@@ -96,8 +98,11 @@ def train(design, data, objects, hidden, epochs, lr, batch_size, protocol, seed,
         model = C.fit_quiet(C.make_classifier(seed=seed, **params), train_ds.features(), train_ds.y)
     except (DatasetError, ValueError) as err:
         fail(f"training refused: {err}")
+    from whisker.dataset import feature_limit_px
+
     info = {"params": params, "protocol": None if all_data else protocol, "seed": seed,
-            "trained_on": ds.summary(), "design_whiskers": design.whiskers.count}
+            "trained_on": ds.summary(), "design_whiskers": design.whiskers.count,
+            "feature_limit_px": feature_limit_px(design)}
     if test_ds is not None:
         pred = model.predict(test_ds.features())
         acc = float(np.mean(pred == test_ds.y))

@@ -11,6 +11,11 @@ import click
 
 from whisker.cliutil import design_options, fail
 
+#: most rows `coil thermal` prints (one per --step)
+MAX_THERMAL_ROWS = 100_000
+#: mm, the largest gap `coil force` tabulates: beyond it the force is nil and the models' series overflow
+MAX_GAP_MM = 1000.0
+
 # shortcut option -> design parameter
 _SHORTCUTS = {
     "wire": "coil.wire_diameter", "enamel_grade": "winding.enamel_grade", "inner": "coil.inner_diameter",
@@ -20,41 +25,59 @@ _SHORTCUTS = {
 }
 
 
+#: a shortcut's value is passed on as typed, so the design model (pydantic) parses and bounds it
+#: exactly as it does `--set section.key=VALUE` (and `design show`)
+DESIGN_VALUE = click.STRING
+
+
 def coil_options(f):
-    """Design options plus coil shortcuts (--wire, --turns, --fill ...) applied as overrides."""
-    @design_options
-    @click.option("--wire", type=float, help="Bare wire diameter, mm (coil.wire_diameter).")
+    """Design options plus coil shortcuts (--wire, --turns, --fill ...) applied as overrides.
+
+    The shortcuts become ``--set`` overrides on the same loading path as every other command
+    (whisker.cliutil.design_options -> load_design), so `coil report --wire X` and
+    `design show --set coil.wire_diameter=X` accept and refuse exactly the same values.
+    """
+    inner = design_options(_turns_max(f))
+
+    @click.option("--wire", type=DESIGN_VALUE, help="Bare wire diameter, mm (coil.wire_diameter).")
     @click.option("--enamel-grade", type=click.IntRange(1, 3), help="IEC 60317 enamel grade 1-3 (winding.enamel_grade).")
-    @click.option("--inner", type=float, help="Coil bore diameter, mm (coil.inner_diameter).")
-    @click.option("--outer", type=float, help="Coil outer diameter, mm (coil.outer_diameter).")
-    @click.option("--length", type=float, help="Coil length along its axis, mm (coil.length).")
+    @click.option("--inner", type=DESIGN_VALUE, help="Coil bore diameter, mm (coil.inner_diameter).")
+    @click.option("--outer", type=DESIGN_VALUE, help="Coil outer diameter, mm (coil.outer_diameter).")
+    @click.option("--length", type=DESIGN_VALUE, help="Coil length along its axis, mm (coil.length).")
     @click.option("--turns", help="Turns (coil.turns), or 'max' for as many as fit at the fill factor.")
-    @click.option("--fill", type=float, help="Copper fill factor (winding.fill_factor).")
-    @click.option("--resistance", type=float, help="Measured coil resistance at 20 C, ohm (coil.resistance).")
-    @click.option("--supply", type=float, help="Supply into the H-bridge, V (driver.supply_voltage).")
+    @click.option("--fill", type=DESIGN_VALUE, help="Copper fill factor (winding.fill_factor).")
+    @click.option("--resistance", type=DESIGN_VALUE, help="Measured coil resistance at 20 C, ohm (coil.resistance).")
+    @click.option("--supply", type=DESIGN_VALUE, help="Supply into the H-bridge, V (driver.supply_voltage).")
     @click.option("--driver", "driver_name", type=click.Choice(["L298N", "TB6612FNG", "DRV8833"]),
                   help="H-bridge (driver.type).")
-    @click.option("--gap", type=float, help="Coil-magnet gap at rest, mm (actuation.gap).")
-    @click.option("--stiffness", type=float, help="Membrane rotational stiffness, N*mm/rad.")
-    @functools.wraps(f)
-    def wrapper(*args, design, turns=None, **kwargs):
-        from whisker.design import DesignError, apply_overrides, design_from_dict
-
-        over = []
+    @click.option("--gap", type=DESIGN_VALUE, help="Coil-magnet gap at rest, mm (actuation.gap).")
+    @click.option("--stiffness", type=DESIGN_VALUE, help="Membrane rotational stiffness, N*mm/rad.")
+    @functools.wraps(inner)
+    def wrapper(*args, overrides=(), turns=None, **kwargs):
+        over = list(overrides)
         for key, param in _SHORTCUTS.items():
             v = kwargs.pop(key, None)
-            if v is not None:
-                over.append(f"{param}={v!r}" if isinstance(v, str) else f"{param}={v}")
-        try:
-            if over:
-                design = design_from_dict(apply_overrides(design.to_dict(), over))
-            if turns is not None:
-                if turns == "max":
-                    from whisker.coil import winding
-                    turns = winding(design).max_turns_at_fill
-                design = design_from_dict(apply_overrides(design.to_dict(), [f"coil.turns={turns}"]))
-        except DesignError as err:
-            fail(f"design refused: {err}")
+            if v is not None:   # the text as typed: the design model parses and bounds it, as for --set
+                over.append(f"{param}={v!r}" if key == "driver_name" else f"{param}={v}")
+        if turns is not None and turns != "max":
+            over.append(f"coil.turns={turns}")
+        return inner(*args, overrides=tuple(over), turns_max=turns == "max", **kwargs)
+    return wrapper
+
+
+def _turns_max(f):
+    """--turns max: as many turns as fit at the (validated) design's fill factor."""
+    @functools.wraps(f)
+    def wrapper(*args, design, turns_max=False, **kwargs):
+        if turns_max:
+            from whisker.coil import winding
+            from whisker.design import DesignError, apply_overrides, design_from_dict
+
+            try:
+                design = design_from_dict(apply_overrides(design.to_dict(), [
+                    f"coil.turns={winding(design).max_turns_at_fill}"]))
+            except DesignError as err:
+                fail(f"design refused: {err}")
         return f(*args, design=design, **kwargs)
     return wrapper
 
@@ -125,6 +148,8 @@ def force(design, models, gaps, volts):
         g = np.array([float(x) for x in gaps.split(",") if x.strip()])
     except ValueError:
         fail(f"--gaps: not a comma-separated list of numbers: {gaps!r}")
+    if g.size == 0 or not np.all((g > 0) & (g <= MAX_GAP_MM)):
+        fail(f"--gaps: every gap must be in (0, {MAX_GAP_MM:g}] mm (got {gaps!r})")
     models = models or ("table",)
     cur = current_A(design, volts) if volts is not None else None
     head = "gap_mm " + " ".join(f"{m + '_mN/A':>16s}" for m in models)
@@ -200,6 +225,11 @@ def thermal(design, volts, duty, seconds, step, convection):
     th = CoilThermal(design, convection=convection)
     s = {"limit": th.limit_name, "limit_C": th.limit_C, "safe_duty": th.safe_duty(v)}
     t_end = seconds or 4.0 * th.time_constant_s
+    if not step > 0 or t_end < 0:
+        fail(f"--step must be > 0 s and --seconds >= 0 (got step {step:g}, seconds {t_end:g})")
+    if t_end / step > MAX_THERMAL_ROWS:
+        fail(f"--seconds {t_end:g} / --step {step:g} is {t_end / step:.3g} rows, over {MAX_THERMAL_ROWS}; "
+             "give a larger --step")
     click.echo(f"{v:g} V, duty {duty:g}: steady state {th.steady_state_C(v, duty):.0f} C; first limit "
                f"{s['limit']} {s['limit_C']:g} C after {th.time_to_C(th.limit_C, v, duty):.3g} s; "
                f"safe duty {s['safe_duty'] * 100:.1f} %")

@@ -11,6 +11,10 @@ from whisker.commands.actuate import level_options
 from whisker.commands.grasp import build_sequence, sequence_options
 
 
+#: a --duration at least this long is announced before recording starts, s
+LONG_RECORDING_S = 60.0
+
+
 @click.command()
 @design_options
 @click.option("--source", required=True, metavar="SOURCE",
@@ -22,7 +26,8 @@ from whisker.commands.grasp import build_sequence, sequence_options
               help="Session folder to create (must not exist or be empty).")
 @click.option("--frames", "max_frames", type=click.IntRange(1, None), default=None,
               help="Stop after this many frames.")
-@click.option("--duration", type=click.FloatRange(0, None), default=None, help="Stop after this many seconds.")
+@click.option("--duration", type=click.FloatRange(0, 24 * 3600, min_open=True), default=None,
+              help="Stop after this many seconds (at most a day).")
 @click.option("--method", type=click.Choice(["paper", "contour", "blob", "roi"]), default="roi",
               show_default=True, help="Tracking method (see whisker track --help).")
 @click.option("--model", type=click.Choice(["paper", "exact"]), default="paper", show_default=True,
@@ -91,6 +96,9 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
     if (max_frames is None and duration is None and which is None and sequence_file is None
             and source in ("picamera", "sim") + tuple("0123456789")):
         fail("record: a live camera needs --frames, --duration or --grasp to know when to stop")
+    if not quiet and duration is not None and duration >= LONG_RECORDING_S:
+        click.echo(f"record: up to {duration:g} s ({duration / 60:.1f} min) of frames; Ctrl-C stops early and "
+                   "keeps every complete frame", err=True)
     tracker = None
     if not no_track:
         from whisker.tracking import Tracker
@@ -116,6 +124,7 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
             "trial": trial}
     act = runner = None
     n_frames = 0
+    written = [0]                            # complete frames so far (for the message if the disk fills)
     try:
         with deenergise_on_signals():
             try:
@@ -147,8 +156,12 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
                         except CalibrationError as err:
                             fail(f"record: {err}")
                     bar = tqdm(desc="record", unit="frame", disable=quiet, file=sys.stderr, total=max_frames)
+
+                    def tick(c, t):
+                        written[0] += 1
+                        bar.update()
                     n_frames = record_frames(rec, rest, tracker=tracker, model=model, actuator=act,
-                                             on_frame=lambda c, t: bar.update())
+                                             on_frame=tick)
                     left = None if max_frames is None else max_frames - n_frames
                     if left is None or left > 0:
                         runner = ThreadedSequenceRunner(act, steps) if act is not None else None
@@ -156,7 +169,7 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
                             rec, frames, tracker=tracker, model=model, runner=runner, actuator=act,
                             max_frames=left, duration_s=duration,
                             after_sequence_s=tail_s if runner is not None else None,
-                            on_frame=lambda c, t: bar.update())
+                            on_frame=tick)
                     bar.close()
                 finally:
                     # switch off while the actuation table is still open, so the "off" row is recorded
@@ -167,6 +180,12 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
                         rec.meta["guard"] = act.guard.state()
     except (RatingError, ValueError, RuntimeError) as err:
         fail(f"record: {err}")
+    except OSError as err:
+        from whisker.errors import explain
+
+        code, line = explain(err)
+        fail(f"record: writing {out_dir}: {line}; the session keeps its {written[0]} complete frame(s) "
+             "(readable by whisker recplot and whisker track)", code)
     finally:
         if runner is not None:
             runner.stop()

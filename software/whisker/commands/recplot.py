@@ -16,8 +16,11 @@ from whisker.cliutil import fail
 @click.option("--band", type=click.Choice(["std", "sem", "minmax"]), default="std", show_default=True,
               help="Error band across trials.")
 @click.option("--align", default="retract", show_default=True,
-              help="Actuation phase whose first command is time 0 in every trial.")
-@click.option("--dt", "dt_s", type=float, default=None, help="Time step of the common grid, s (default: frame interval).")
+              help="Actuation phase whose first command is time 0 in every trial (retract, hold, release ...), "
+                   "or 'frame' to align on each trial's first frame. A trial without that command is refused, "
+                   "named.")
+@click.option("--dt", "dt_s", type=click.FloatRange(0, 3600, min_open=True), default=None,
+              help="Time step of the common grid, s (default: frame interval).")
 @click.option("--grid", is_flag=True, help="One panel per whisker instead of one axes.")
 @click.option("--title", default="", help="Figure title.")
 def cli(sessions, out, quantity, band, align, dt_s, grid, title):

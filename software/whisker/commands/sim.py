@@ -10,6 +10,9 @@ import click
 
 from whisker.cliutil import fail
 
+#: a plain run of at least this many time steps says so before it starts
+LONG_RUN_STEPS = 200_000
+
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("scene_file", type=click.Path(dir_okay=False))
@@ -38,6 +41,7 @@ def cli(scene_file, explain, out, overrides, scene_sets, attempts, trials, as_js
     """
     from whisker.sim import SceneError, SimulationError, load_scene, plan, scene_design
     from whisker.sim.contract import MissingModule
+    from whisker.sim.validate import check, steps_of
 
     try:
         from whisker.resources import example, scenes_dir
@@ -58,6 +62,7 @@ def cli(scene_file, explain, out, overrides, scene_sets, attempts, trials, as_js
             scene = scene.with_(**changes)
         design = scene_design(scene, tuple(overrides))
         p = plan(scene, design)
+        check(scene, design, p)          # the same checks for --explain and for the run
     except (SceneError, MissingModule) as err:
         fail(f"scene refused: {err}")
     if explain:
@@ -72,6 +77,10 @@ def cli(scene_file, explain, out, overrides, scene_sets, attempts, trials, as_js
     from whisker.sim.runner import run_scene
 
     out = Path(out) if out else Path("runs") / _slug(scene.scene.name)
+    steps = steps_of(scene) if p.solver != "static" else 0
+    if steps >= LONG_RUN_STEPS and scene.experiment.kind == "none":
+        click.echo(f"long run: {steps:,} time steps of {scene.scene.timestep:g} s ({p.solver} solver); "
+                   "the progress bar shows how far it is", err=True)
     bar = tqdm(total=1000, disable=quiet, unit="", bar_format="{l_bar}{bar}| {elapsed}<{remaining}",
                desc=scene.scene.name, file=None)
 
@@ -94,6 +103,9 @@ def cli(scene_file, explain, out, overrides, scene_sets, attempts, trials, as_js
     bar.close()
     click.echo(summary.get("headline", f"done in {time.perf_counter() - t0:.2f} s"))
     click.echo(f"run folder: {out}")
+    flags = summary.get("flags") or []
+    if flags:
+        fail(f"sim: the run is unphysical: {'; '.join(flags)} (see {out}/summary.json)", 1)
 
 
 def _slug(name: str) -> str:

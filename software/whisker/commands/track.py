@@ -60,6 +60,23 @@ def annotate(image, result, baseline_xy):
     return out
 
 
+def _measured_tracker(design, tracker, rest, kw, quiet):
+    """A tracker whose marker radii are measured on the first usable rest frame (or `tracker` if none)."""
+    from whisker.rest_geometry import RestGeometryError, measure
+    from whisker.tracking import Tracker
+
+    img = next((getattr(f, "image", f) for f in rest if getattr(f, "image", f) is not None), None)
+    try:
+        g = measure(design, img, calibration=kw["calibration"], mask=kw["mask"])
+    except RestGeometryError as err:
+        click.echo(f"track: {err}; the design's marker size is used", err=True)
+        return tracker
+    if not quiet:
+        for line in g.lines():
+            click.echo(f"rest frame: {line}", err=True)
+    return Tracker(design, marker_radius_px=g.marker_radius_px, edge_radius_px=g.edge_radius_px, **kw)
+
+
 @click.command()
 @design_options
 @click.option("--source", required=True, metavar="SOURCE",
@@ -87,9 +104,12 @@ def annotate(image, result, baseline_xy):
 @click.option("--k-source", type=click.Choice(["design", "ring"]), default="design", show_default=True,
               help="mm per pixel from the camera model, or measured from the rest ring's radius.")
 @click.option("--max-frames", type=click.IntRange(1, None), default=None, help="Stop after this many frames.")
+@click.option("--marker-size", type=click.Choice(["measured", "design"]), default="measured", show_default=True,
+              help="fit: the markers' radius measured on the first rest frame (whisker.rest_geometry) or the "
+                   "design's coil.marker_diameter.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or summary.")
 def cli(design, source, method, out_csv, record, show, rest_source, rest_frames, calibration, undistort, mask,
-        model, k_source, max_frames, quiet):
+        model, k_source, max_frames, marker_size, quiet):
     """Track the whisker markers and compute each whisker's deflection (theta, tip position).
 
     The first --rest-frames frames (or the --rest source) must show the whiskers untouched: their
@@ -125,6 +145,9 @@ def cli(design, source, method, out_csv, record, show, rest_source, rest_frames,
             rest = buffered = list(itertools.islice(frames, rest_frames))
         if not rest:
             fail("track: no frames to take the rest baseline from (empty or unreadable source)")
+        if method == "fit" and marker_size == "measured":
+            tracker = _measured_tracker(design, tracker, rest, dict(
+                method=method, calibration=calibration, undistort=undistort, mask=mask, k_source=k_source), quiet)
         tracker.calibrate(rest)
     except SourceError as err:
         src.close()
@@ -158,6 +181,7 @@ def cli(design, source, method, out_csv, record, show, rest_source, rest_frames,
         stream = itertools.islice(stream, max_frames)
     n_frames = 0
     valid_count = np.zeros(tracker.n, int)
+    refused, refused_frames = 0, 0
     import time
 
     t_track = 0.0
@@ -170,6 +194,8 @@ def cli(design, source, method, out_csv, record, show, rest_source, rest_frames,
             rows.extend(csv_rows(frame, res, defl))
             n_frames += 1
             valid_count += res.valid
+            refused += res.fit_refused
+            refused_frames += res.fit_refused > 0
             if record or show:
                 import cv2
 
@@ -203,6 +229,9 @@ def cli(design, source, method, out_csv, record, show, rest_source, rest_frames,
         ms = 1000.0 * t_track / max(n_frames, 1)
         click.echo(f"{n_frames} frames, method {method}, {ms:.2f} ms/frame tracking; valid per whisker: "
                    f"{(valid_count / max(n_frames, 1)).round(3).tolist()}", err=True)
+        if method == "fit":
+            click.echo(f"fit: the disc fit was refused (centroid kept) for {refused} of {int(valid_count.sum())} "
+                       f"tracked markers, in {refused_frames} of {n_frames} frames", err=True)
         if getattr(src, "truncated", False):
             click.echo(f"warning: {source} ended early (truncated video)", err=True)
         if out_csv:

@@ -4,8 +4,8 @@ Built when the scene's camera is on and frames, video or tracks are asked for. E
 markers' sensor-frame positions (whisker.sim.kinematics) projected by ``whisker.render.marker_pixels``
 (the design's pinhole, the lens distortion of the tracker's calibration when given), drawn by
 ``whisker.render.render_frame`` (coil blocks, red markers, wires, LED ring, noise and blur, seeded
-per frame). With ``camera.calibration`` (an .npz with ``mtx``, ``dist``, e.g. the authors' lens calibration)
-the frames carry that lens's distortion and the tracker undistorts its centroids.
+per frame). With ``camera.calibration`` (a lens .npz of any model, whisker.lens: the authors' lens calibration
+or one from ``whisker calibrate camera``, standard or fisheye) the frames carry that lens's distortion and the tracker undistorts its centroids.
 The tracking effect calibrates a ``whisker.tracking.Tracker`` on rest frames (the
 paper's rest baseline), tracks every frame, converts the pixel displacements with the tracker's
 geometry (the paper's equations) and compares the tips with the simulator's ground truth.
@@ -54,20 +54,21 @@ def camera_run(scene, design, result, *, keep_frames: bool = False, track: bool 
 
     cam = scene.camera
     mtx = dist = None
+    model = "standard"
     if cam.calibration:
         p = Path(cam.calibration)
         p = p if p.is_absolute() else Path(scene.base_dir) / p
         from whisker.sim.scene import SceneError
         try:
-            mtx, dist = load_calibration(p)
+            mtx, dist, model = load_calibration(p)
         except ValueError as err:
             raise SceneError(f"camera.calibration: {err}") from None
     times = frame_times(float(result.t_s[-1]), cam.fps) if len(result.t_s) > 1 else np.zeros(1)
     idx = np.clip(np.searchsorted(result.t_s, times - 1e-9), 0, len(result.t_s) - 1)
     theta = result.theta_rad[idx]
     n = theta.shape[1]
-    px = np.array([marker_pixels(design, marker_positions_mm(design, th), mtx, dist) for th in theta])
-    rest_px = marker_pixels(design, marker_positions_mm(design, np.zeros((n, 2))), mtx, dist)
+    px = np.array([marker_pixels(design, marker_positions_mm(design, th), mtx, dist, model) for th in theta])
+    rest_px = marker_pixels(design, marker_positions_mm(design, np.zeros((n, 2))), mtx, dist, model)
     seed0 = scene.scene.seed * 100003
 
     def draw(p, k):
@@ -76,7 +77,7 @@ def camera_run(scene, design, result, *, keep_frames: bool = False, track: bool 
     frames = [] if keep_frames else None
     est = valid = None
     if track:
-        trk = tracker(design, cam.method, None if mtx is None else (mtx, dist))
+        trk = tracker(design, cam.method, None if mtx is None else (mtx, dist, model))
         trk.calibrate([draw(rest_px, 10_000_000 + j) for j in range(rest_frames)])   # own noise seeds
         est = np.full((len(times), n, 2), np.nan)
         valid = np.zeros((len(times), n), bool)

@@ -72,17 +72,19 @@ def coil_thermal(design):
     return m.CoilThermal(design)
 
 
-def marker_pixels(design, xyz_mm, mtx=None, dist=None) -> np.ndarray:
-    """Pixel centres of markers at sensor-frame xyz (mm): pinhole, optional lens distortion."""
+def marker_pixels(design, xyz_mm, mtx=None, dist=None, model: str = "standard") -> np.ndarray:
+    """Pixel centres of markers at sensor-frame xyz (mm): pinhole, optional lens distortion of `model`
+    (whisker.lens: standard, rational or fisheye)."""
     m = _mod("whisker.render", "the camera effect")
-    kw = {} if mtx is None else {"mtx": mtx, "dist": dist}
+    kw = {} if mtx is None else {"mtx": mtx, "dist": dist, "model": model}
     return np.asarray(m.marker_pixels(design, np.asarray(xyz_mm, dtype=float), **kw), dtype=float)
 
 
 def load_calibration(path):
-    """(mtx, dist) from an .npz lens calibration (whisker.tracking)."""
-    m = _mod("whisker.tracking", "the camera's lens distortion")
-    return m.load_calibration(path)
+    """(mtx, dist, model) from an .npz lens calibration of any model (whisker.lens.load_lens)."""
+    m = _mod("whisker.lens", "the camera's lens distortion")
+    lens = m.load_lens(path)
+    return lens.mtx, lens.dist, lens.model
 
 
 def render_frame(design, markers_px, **kw) -> np.ndarray:

@@ -336,6 +336,7 @@ def run_mujoco(scene, design, plan, body, progress, record_hz):
                  objects_mm=np.array(rec["obj"]), object_names=[o.name for o in scene.objects],
                  sensor_pose=poses_table(scene, np.array(rec["t"])), contacts=np.array(rec["nc"]),
                  steps=steps, info={"mujoco_energy_J": rec["E"][-1], "mujoco_energy_max_J": max(rec["E"]),
+                       "mujoco_energy_start_J": rec["E"][0],
                        "stop_violation_max_deg": over})
     if sim.drive.heating:
         res.temperature_C = np.array(rec["T"])

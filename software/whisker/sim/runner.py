@@ -50,6 +50,9 @@ def run_scene(scene, design, plan, out: Path, progress=None) -> dict:
             summary["objects_final_mm"] = {n: res.objects_mm[-1, i].tolist() for i, n in enumerate(res.object_names)}
         if res.info:
             summary.update(res.info)
+        from whisker.sim.validate import run_flags
+
+        summary["flags"] = run_flags(scene, res)
         summary["headline"] = f"final tilt (deg): {', '.join(f'{x:+.2f}' for x in th)}"
         if "camera" in summary and "tip_rms_mm" in summary["camera"]:
             c = summary["camera"]

@@ -23,7 +23,7 @@ Conventions (see docs/sim.md):
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
@@ -68,6 +68,9 @@ class Sensor(_S):
         for i, w in enumerate(v):
             if len(w) != 5:
                 raise ValueError(f"waypoint {i} has {len(w)} values, expected 5 [t, x, y, tip_height, yaw]")
+            for name, val, lim in zip(("t_s", "x_mm", "y_mm", "tip_height_mm", "yaw_deg"), w, PATH_LIMITS):
+                if not abs(val) <= lim:
+                    raise ValueError(f"waypoint {i}: {name} = {val:g} is beyond +-{lim:g}")
         ts = [w[0] for w in v]
         if any(b <= a for a, b in zip(ts, ts[1:])) or ts[0] < 0:
             raise ValueError(f"waypoint times must start at >= 0 and increase strictly (got {ts})")
@@ -76,6 +79,15 @@ class Sensor(_S):
     @property
     def moves(self) -> bool:
         return any(w[1:] != self.path[0][1:] for w in self.path)
+
+
+#: |value| limits of a waypoint [t_s, x_mm, y_mm, tip_height_mm, yaw_deg]: an hour, a robot's reach
+#: (2 m), ten turns of yaw. Beyond them a path is a typo, and the step and memory counts would explode.
+PATH_LIMITS = (3600.0, 2000.0, 2000.0, 2000.0, 3600.0)
+#: mm, the largest object size (radius, half-length) and distance from the origin a scene may hold:
+#: the sensor is 32 mm across; a 1 m object or one 2 m away is a typo (and 1e308 overflows MuJoCo).
+MAX_OBJECT_MM = 1000.0
+MAX_DISTANCE_MM = 2000.0
 
 
 class Table(_S):
@@ -133,10 +145,11 @@ class Part(_S):
 
     @model_validator(mode="after")
     def _check(self) -> "Part":
-        if len(self.size) != _SIZE_COUNT[self.shape] or any(not v > 0 for v in self.size):
-            raise ValueError(f"part {self.shape} needs {_SIZE_COUNT[self.shape]} size value(s) > 0 mm (got {self.size})")
-        if len(self.pos) != 3:
-            raise ValueError(f"part pos is [x, y, z] mm (got {self.pos})")
+        if len(self.size) != _SIZE_COUNT[self.shape] or any(not 0 < v <= MAX_OBJECT_MM for v in self.size):
+            raise ValueError(f"part {self.shape} needs {_SIZE_COUNT[self.shape]} size value(s) in (0, "
+                             f"{MAX_OBJECT_MM:g}] mm (got {self.size})")
+        if len(self.pos) != 3 or any(not abs(v) <= MAX_OBJECT_MM for v in self.pos):
+            raise ValueError(f"part pos is [x, y, z] mm within +-{MAX_OBJECT_MM:g} (got {self.pos})")
         return self
 
 
@@ -151,7 +164,7 @@ class SceneObject(_S):
         "[mechanics] tip_friction (the bare rods use contact.rod_friction, the table table.friction; "
         "whisker.sim.mj)"))
     pos: list[float] = Field(default_factory=lambda: [0.0, 0.0], description="[x, y] mm on the table")
-    yaw: float = Field(0.0, description="deg about the vertical")
+    yaw: float = Field(0.0, ge=-3600, le=3600, description="deg about the vertical")
     mesh: str = Field("", description="mesh file (STL/OBJ), relative to the scene file")
     fixed: bool = Field(False, description="held in place (a static body) instead of free on the table")
     parts: list[Part] = Field(default_factory=list, description="extra primitives on the core (irregular shapes); "
@@ -162,10 +175,10 @@ class SceneObject(_S):
         n = _SIZE_COUNT[self.shape]
         if len(self.size) != n:
             raise ValueError(f"object {self.name!r}: shape {self.shape} needs {n} size value(s), got {len(self.size)}")
-        if any(not s > 0 for s in self.size):
-            raise ValueError(f"object {self.name!r}: sizes must be > 0 mm (got {self.size})")
-        if len(self.pos) != 2:
-            raise ValueError(f"object {self.name!r}: pos is [x, y] in mm (got {self.pos})")
+        if any(not 0 < s <= MAX_OBJECT_MM for s in self.size):
+            raise ValueError(f"object {self.name!r}: sizes must be in (0, {MAX_OBJECT_MM:g}] mm (got {self.size})")
+        if len(self.pos) != 2 or any(not abs(v) <= MAX_DISTANCE_MM for v in self.pos):
+            raise ValueError(f"object {self.name!r}: pos is [x, y] in mm within +-{MAX_DISTANCE_MM:g} (got {self.pos})")
         if self.shape == "mesh" and not self.mesh:
             raise ValueError(f"object {self.name!r}: shape mesh needs mesh = 'file.stl'")
         return self
@@ -200,7 +213,7 @@ class SceneObject(_S):
 
 
 class ActEvent(_S):
-    t: float = Field(ge=0, description="s")
+    t: float = Field(ge=0, le=3600, description="s")
     level: float = Field(ge=-1, le=1, description="signed duty, + retracts")
     whiskers: list[int] | None = Field(None, description="whisker indices; default all")
 
@@ -255,10 +268,10 @@ class Fidelity(_S):
     magnetics_lookup: int = Field(256, ge=0, le=100000,
                                   description="sample the magnetics model at this many gaps once per run and "
                                               "interpolate (0: call the model every step)")
-    heating_interval: float = Field(0.05, gt=0, description="s between coil-temperature updates "
+    heating_interval: float = Field(0.05, gt=0, le=60, description="s between coil-temperature updates "
                                                            "(the coil's thermal time constant is seconds)")
     heating: Literal["auto", "on", "off"] = "auto"
-    heating_threshold_K: float = Field(0.5, gt=0, description="K of predicted coil rise that turns heating on")
+    heating_threshold_K: float = Field(0.5, gt=0, le=1000, description="K of predicted coil rise that turns heating on")
     contact: Literal["auto", "on"] = Field("auto", description="'on' builds MuJoCo even without objects")
     solver: Literal["auto", "static", "dynamic"] = "auto"
     integrator: Literal["implicit", "euler"] = "implicit"
@@ -268,7 +281,7 @@ class ContactSpec(_S):
     """MuJoCo contact settings (the contact effect); defaults chosen in benchmarks/results/sim.md."""
     rod_friction: float = Field(0.3, ge=0, le=10, description="Coulomb coefficient of the bare carbon rod "
                                                               "(estimate; against the tips an object uses its own friction)")
-    tip_coating: float = Field(5.0, gt=0, description="mm of sand coating at the tip")
+    tip_coating: float = Field(5.0, gt=0, le=100, description="mm of sand coating at the tip")
     tip_radius_factor: float = Field(1.2, ge=1, le=5, description="coated tip radius / rod radius")
     condim: Literal[1, 3, 4, 6] = Field(4, description="MuJoCo contact dimensionality (4: + torsional friction)")
     patch_radius: float = Field(0.6, ge=0, le=20, description=(
@@ -289,23 +302,23 @@ class ContactSpec(_S):
 class Experiment(_S):
     """Repeat the scene with variations (the paper's experiments); see whisker.sim.experiments."""
     kind: Literal["none", "angle_vs_voltage", "grasp", "displacement", "classification"] = "none"
-    voltages: list[float] = Field(default_factory=list, description="V, angle_vs_voltage")
+    voltages: list[Annotated[float, Field(ge=-100, le=100)]] = Field(default_factory=list, description="V, angle_vs_voltage")
     configurations: list[list[int]] = Field(default_factory=list,
                                             description="grasp: whisker index sets, e.g. [[0..7],[0,2,4,6],[0,4]]")
     attempts: int = Field(20, ge=1, le=10000)
     placement_noise: float = Field(2.0, ge=0, le=50, description="mm, std of the object's (x, y) placement")
     yaw_noise: float = Field(180.0, ge=0, le=360, description="deg, uniform half-range of object yaw")
     lift: float = Field(30.0, ge=0, le=500, description="mm the sensor rises after closing")
-    hold_height: float = Field(5.0, ge=0, description="mm above the table counted as held at the end")
+    hold_height: float = Field(5.0, ge=0, le=1000, description="mm above the table counted as held at the end")
     objects: list[str] = Field(default_factory=list, description="object names to use (default all)")
     trials: int = Field(5, ge=1, le=1000)
-    distances: list[float] = Field(default_factory=lambda: [30.0, 10.0],
+    distances: list[Annotated[float, Field(ge=0, le=MAX_DISTANCE_MM)]] = Field(default_factory=lambda: [30.0, 10.0],
                                    description="mm, classification: object centre to the nearest resting "
                                                "whisker tip (the front of the ring)")
     directions: int = Field(4, ge=1, le=16, description="classification: approach directions")
-    rotations: list[float] = Field(default_factory=lambda: [0.0, 60.0, 120.0, 180.0, 240.0, 300.0],
+    rotations: list[Annotated[float, Field(ge=-3600, le=3600)]] = Field(default_factory=lambda: [0.0, 60.0, 120.0, 180.0, 240.0, 300.0],
                                    description="deg, classification: sensor rotations")
-    tip_height: float = Field(3.0, ge=0, description="mm, tips above the table (classification/grasp)")
+    tip_height: float = Field(3.0, ge=0, le=1000, description="mm, tips above the table (classification/grasp)")
 
 
 class Scene(_S):
