@@ -105,9 +105,11 @@ def camera_pocket_box(d: "Design") -> tuple[float, float, float, float]:
 
 
 def mounting_hole_angles(d: "Design") -> list[float]:
-    """Robot mounting holes: the first at +y (the camera's flat cable leaves at -y), deg."""
+    """Robot mounting holes, deg: spaced evenly and symmetric about the camera's flat cable at -y,
+    none on it (3 holes: 90, 210, 330 deg; 4 holes: 45, 135, 225, 315 deg, which interleave with an
+    ISO 9409-1 four-bolt flange turned square to the cable)."""
     n = d.mount.mounting_hole_count
-    return [90.0 + 360.0 * k / n for k in range(n)]
+    return [(270.0 + 180.0 / n + 360.0 * k / n) % 360.0 for k in range(n)]
 
 
 def cable_exit_angles(d: "Design") -> list[float]:
@@ -258,12 +260,28 @@ def mount_outer_radius(d: "Design", auto: frozenset = frozenset()) -> float:
     return ceil_step(need, MOUNT_STEP_MM)
 
 
+def _inside_robot_flange(d: "Design") -> float:
+    """Largest bolt-circle radius that keeps the mount's screws inside the robot flange's bolts on the
+    adapter plate (both clearance holes and print.min_wall apart), mm; inf without robot bolts."""
+    from whisker import fasteners
+    from whisker.cad import extras  # the flange table (hw/flanges.csv); no CadQuery
+
+    fl = extras.flange(extras.section(d, "adapter").preset)
+    if not fl.bolt_count:
+        return math.inf
+    robot, screw = fasteners.fastener(fl.thread), fasteners.fastener(d.fasteners.mount_screw)
+    return fl.pitch_diameter / 2 - (robot.clear_medium + screw.clear_medium) / 2 - d.print.min_wall
+
+
 def mounting_bolt_radius(d: "Design", auto: frozenset = frozenset()) -> float:
-    """As far out as the outer wall allows (print.min_wall outside each hole), so the holes keep
-    the most material to the camera pocket; rounded down to 0.1 mm."""
+    """As far out as the outer wall allows (print.min_wall outside each hole), so the holes keep the
+    most material to the camera pocket, but inside the robot flange's bolt circle by both clearance
+    holes and a wall (the adapter plate carries both); rounded down to 0.1 mm."""
     m = d.mount
-    return round(max(_mounting_hole_needs(d) if m.mounting_hole_count else 0.0,
-                     floor_step(m.outer_radius - d.mounting_hole_diameter / 2 - d.print.min_wall, 0.1)), 3)
+    need = _mounting_hole_needs(d) if m.mounting_hole_count else 0.0
+    out = floor_step(m.outer_radius - d.mounting_hole_diameter / 2 - d.print.min_wall, 0.1)
+    inside = floor_step(_inside_robot_flange(d), 0.1) if math.isfinite(_inside_robot_flange(d)) else out
+    return round(max(need, min(out, inside)), 3)
 
 
 def cable_exit_count(d: "Design", auto: frozenset = frozenset()) -> int:
