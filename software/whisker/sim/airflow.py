@@ -22,32 +22,26 @@ The rod's own motion is neglected against U (tip speeds are mm/s, U is m/s).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
-from whisker.sim.effects import Effect
 
+class AirflowSpec(BaseModel):
+    """The scene's ``[airflow]`` section (no flow by default)."""
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-@dataclass(frozen=True)
-class AirflowSpec:
-    speed_m_s: float = 0.0
-    turbulence: float = 0.3
-    direction_deg: float = 0.0
-    integral_time_s: float = 0.05
-    coherence: float = 0.5
-    drag_coefficient: float = 1.1
-    air_density_kg_m3: float = 1.2
+    speed_m_s: float = Field(0.0, ge=0, le=100, description="m/s, mean flow speed (0: no airflow effect)")
+    turbulence: float = Field(0.3, ge=0, le=3, description="std of the speed fluctuation / mean speed")
+    direction_deg: float = Field(0.0, description="deg, flow heading in the sensor's x-y plane from +x")
+    integral_time_s: float = Field(0.05, gt=0, le=60, description="s, correlation time of the fluctuation")
+    coherence: float = Field(0.5, ge=0, le=1, description="share of the fluctuation common to all whiskers")
+    drag_coefficient: float = Field(1.1, gt=0, le=5, description="C_d of the rod in cross flow")
+    air_density_kg_m3: float = Field(1.2, gt=0, le=2000, description="kg/m^3 (air 1.2; water 1000)")
+    start_s: float = Field(0.0, ge=0, description="s, the flow starts (a gust)")
+    stop_s: float | None = Field(None, gt=0, description="s, the flow stops (default: never)")
 
-    def __post_init__(self):
-        for name in ("speed_m_s", "turbulence", "drag_coefficient", "air_density_kg_m3"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"airflow.{name} must be a finite number >= 0 (got {v})")
-        if not (self.integral_time_s > 0 and math.isfinite(self.integral_time_s)):
-            raise ValueError(f"airflow.integral_time_s must be > 0 s (got {self.integral_time_s})")
-        if not 0.0 <= self.coherence <= 1.0:
-            raise ValueError(f"airflow.coherence must be within 0..1 (got {self.coherence})")
+    def blowing(self, t_s: float) -> bool:
+        return self.on and t_s >= self.start_s and (self.stop_s is None or t_s < self.stop_s)
 
     @property
     def on(self) -> bool:
@@ -67,14 +61,19 @@ def mean_torque_Nm(design, spec: AirflowSpec) -> float:
     return 0.5 * spec.air_density_kg_m3 * spec.drag_coefficient * d * spec.speed_m_s ** 2 * lever_m2(design)
 
 
-def effect(spec: AirflowSpec | None, design, stiffness_Nm_rad: float | None = None) -> Effect:
-    """The plan entry: built when the scene has a flow, with the mean tilt it causes."""
+def effect(spec: AirflowSpec | None, design, stiffness_Nm_rad: float | None = None):
+    """The plan entry (whisker.sim.effects.Effect): built when the scene has a flow, with the
+    mean tilt it causes."""
+    from whisker.sim.effects import Effect   # here, not at the top: effects imports the scene, which imports this
+
     if spec is None or not spec.on:
         return Effect("airflow", False, "no airflow in the scene")
     tau = mean_torque_Nm(design, spec)
     k = stiffness_Nm_rad if stiffness_Nm_rad else design.mechanics.rotational_stiffness * 1e-3
+    when = "" if spec.start_s == 0 and spec.stop_s is None else \
+        f" from {spec.start_s:g} s" + ("" if spec.stop_s is None else f" to {spec.stop_s:g} s")
     return Effect("airflow", True,
-                  f"flow {spec.speed_m_s:g} m/s at {spec.direction_deg:g} deg, turbulence {spec.turbulence:g}: "
+                  f"flow {spec.speed_m_s:g} m/s{when} at {spec.direction_deg:g} deg, turbulence {spec.turbulence:g}: "
                   f"drag {tau * 1e6:.3g} uN*m per rod at the mean speed = {math.degrees(tau / k):.2g} deg "
                   f"static tilt (C_d {spec.drag_coefficient:g})", needs=("kinematics",))
 
@@ -106,7 +105,10 @@ class AirflowDrag:
         r = math.exp(-dt / self.spec.integral_time_s)
         self._noise = r * self._noise + math.sqrt(1 - r * r) * self.rng.standard_normal(self._noise.size)
 
-    def torque(self) -> np.ndarray:
+    def torque(self, t_s: float | None = None) -> np.ndarray:
+        """Drag torques now; zero outside the spec's start_s..stop_s when `t_s` is given."""
+        if t_s is not None and not self.spec.blowing(t_s):
+            return np.zeros((self.n, 2))
         U = self.speeds()
         mag = self._q_per_u2 * U * np.abs(U)
         return np.stack([-mag * self._f_r, mag * self._f_t], axis=-1)
