@@ -16,5 +16,12 @@ states-demo: $(BIN)/.installed ## the authors' airflow demo CSV, both methods (n
 	$(BIN)/whisker states $(WHISKER_PEER_DATA)/airflow/airflowDemoData.csv --method authors --out $(STATES_OUT)/demo_authors.csv > /dev/null
 	$(BIN)/whisker states $(WHISKER_PEER_DATA)/airflow/airflowDemoData.csv --method adaptive --out $(STATES_OUT)/demo_adaptive.csv > /dev/null
 
-bench-states: $(BIN)/.installed ## state estimators: per-state accuracy, latency, cost -> benchmarks/results/states.md
+bench-states: $(BIN)/.installed ## state estimators + closed-loop latency -> benchmarks/results/states.md
 	$(BIN)/python benchmarks/bench_states.py
+
+# Closed-loop grasping (issue 16): the paper's five objects, 8/4/2 whiskers, same placements open vs closed.
+CLOSED_ATTEMPTS ?= 20
+CLOSED_FPS ?= 15
+.PHONY: sim-grasp-closed
+sim-grasp-closed: $(BIN)/.installed ## closed-loop vs open-loop grasp table (CLOSED_ATTEMPTS per cell) -> runs/grasp-closed/
+	$(BIN)/whisker closedloop --attempts $(CLOSED_ATTEMPTS) --fps $(CLOSED_FPS) --out $(SIM_RUNS)/grasp-closed

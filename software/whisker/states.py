@@ -170,7 +170,10 @@ class AdaptiveParams:
     motion_s: window of the motion test; lag_s: the change is taken over this lag (at least one
     frame), so the test means the same at any frame rate; motion_on/off: median |change| in that
     window, in multiples of that median for pure noise (Rayleigh: 1.665 sigma per axis), that
-    starts/ends dynamic, never below motion_min_px. drift_s: time constant of the rest offset's slow update while at rest.
+    starts/ends dynamic, never below motion_min_px. drift_s: time constant of the rest offset's
+    slow update while at rest. expected_tolerance: the share of the expected (own-actuation)
+    displacement added to the contact thresholds, for the error of the free-closing model (the
+    simulator's static map is 6-9 % off MuJoCo's warm coils).
     """
     learn_s: float = 1.0
     learn_frames: int = 10
@@ -185,6 +188,7 @@ class AdaptiveParams:
     motion_min_px: float = 0.6
     drift_s: float = 10.0
     noise_floor_px: float = 0.05
+    expected_tolerance: float = 0.0
 
 
 class AdaptiveEstimator:
@@ -262,8 +266,9 @@ class AdaptiveEstimator:
         s = np.hypot(self.sigma[:, 0], self.sigma[:, 1])         # rms of |d| from noise, px
         # contact / displaced test on this frame alone: reacts within one frame
         mag = np.hypot(d[:, 0], d[:, 1])
-        on = mag > np.maximum(p.contact_on * s, p.contact_min_px)
-        off = mag < np.maximum(p.contact_off * s, p.off_min_px)
+        slack = p.expected_tolerance * np.hypot(exp[:, 0], exp[:, 1])
+        on = mag > np.maximum(p.contact_on * s, p.contact_min_px) + slack
+        off = mag < np.maximum(p.contact_off * s, p.off_min_px) + slack
         self.contact = np.where(ok, np.where(self.contact, ~off, on), self.contact)
         # motion test: median |change over lag_s| within the last motion_s seconds (a step, such
         # as a contact's onset, changes lag_s / motion_s of them and does not move the median)
