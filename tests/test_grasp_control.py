@@ -174,3 +174,4 @@ def test_sim_contact_before_actuation_never_drives_a_coil(grasp_setup):
     r = run_grasp(rig, ctl, hold_height_mm=5)
     assert ctl.phase == "abort" and "contact before actuation" in r.outcome, r.events
     assert r.energy_J == 0.0 and np.all(rig.last_levels == 0)
+    assert r.abort_reaction_frames is not None and r.abort_reaction_frames <= 1     # within one frame

@@ -104,6 +104,7 @@ class GraspRun:
     process_ms: list = field(default_factory=list)     # tracker + states + controller, per frame
     contact_latency_frames: list = field(default_factory=list)
     events: list = field(default_factory=list)
+    abort_reaction_frames: int | None = None            # first true touch -> the abort command
 
 
 class SimGraspRig:
@@ -222,6 +223,7 @@ def run_grasp(rig: SimGraspRig, controller, *, hold_height_mm: float, max_s: flo
     detected = np.zeros(rig.n, dtype=bool)
     frames = 0
     cmd = None
+    reaction = None
     while rig.t < max_s:
         t, img = rig.frame()
         if cmd is not None and drop_frame is not None and drop_frame(rig):
@@ -245,9 +247,11 @@ def run_grasp(rig: SimGraspRig, controller, *, hold_height_mm: float, max_s: flo
             hit = controller.est.contact & (touched_at >= 0) & ~detected
             for w in np.flatnonzero(hit):
                 latency.append(int(frames - touched_at[w]))
-            detected |= controller.est.contact
+            detected |= controller.est.contact & (touched_at >= 0)
         if cmd.phase == "lift" and t_grip is None:
             t_grip = t
+        if cmd.phase == "abort" and tracked and np.any(touched_at >= 0):
+            reaction = int(frames - touched_at[touched_at >= 0].min())
         if cmd.phase in ("done", "abort"):
             if lift_at_release is None:
                 lift_at_release = rig.lift_mm()
@@ -261,4 +265,4 @@ def run_grasp(rig: SimGraspRig, controller, *, hold_height_mm: float, max_s: flo
     held_phase = getattr(controller, "phase", "done") == "done" and not outcome.startswith("missed")
     success = bool(held_phase and lift_at_release > hold_height_mm)
     return GraspRun(type(controller).__name__, success, float(lift_at_release), rig.energy_J, rig.peak_C,
-                    t_grip, outcome or "done", frames, process, latency, list(events))
+                    t_grip, outcome or "done", frames, process, latency, list(events), reaction)

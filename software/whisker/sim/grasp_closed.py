@@ -45,6 +45,7 @@ def _wilcoxon(x, y) -> float:
 def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, configs=None, objects=None,
                       progress=None, params: dict | None = None) -> dict:
     from whisker.grasp_control import GraspController
+    from whisker.guard import ThermalGuard
     from whisker.sim.kinematics import whisker_body
 
     objs = experiment_objects(scene)
@@ -69,7 +70,8 @@ def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, config
                 for mode in ("open", "closed"):
                     rig = SimGraspRig(scene, design, o, cfg, pl, fps=fps, seed=k, body=body)
                     ctl = (OpenLoopController(n, cfg, rig.params()) if mode == "open" else
-                           GraspController(n, cfg, rig.params(**(params or {})), expected))
+                           GraspController(n, cfg, rig.params(**(params or {})), expected,
+                                           guard=ThermalGuard(design, clock=lambda: 0.0)))
                     r = run_grasp(rig, ctl, hold_height_mm=hold)
                     res[mode].append(r)
                     runs.append({"object": o.name, "whiskers": len(cfg), "placement": k, "mode": mode,
