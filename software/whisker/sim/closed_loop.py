@@ -230,6 +230,8 @@ def run_grasp(rig: SimGraspRig, controller, *, hold_height_mm: float, max_s: flo
             rig.advance(cmd.levels, cmd.arm_mm_s)
             continue
         touching = rig.touching()
+        if tracked and controller.phase in ("descend", "close", "tighten"):
+            touched_at[touching & (touched_at < 0)] = frames + 1       # this frame's number
         t0 = time.perf_counter()
         if tracked:
             res = rig.tracker.track(img)
@@ -242,8 +244,6 @@ def run_grasp(rig: SimGraspRig, controller, *, hold_height_mm: float, max_s: flo
             on_frame(rig, controller, cmd)
         # latency of the contact flag: frames from the first true touch to the first contact flag
         if tracked and controller.phase in ("descend", "close", "tighten"):
-            newly = touching & (touched_at < 0)
-            touched_at[newly] = frames
             hit = controller.est.contact & (touched_at >= 0) & ~detected
             for w in np.flatnonzero(hit):
                 latency.append(int(frames - touched_at[w]))
