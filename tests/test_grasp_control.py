@@ -175,3 +175,12 @@ def test_sim_contact_before_actuation_never_drives_a_coil(grasp_setup):
     assert ctl.phase == "abort" and "contact before actuation" in r.outcome, r.events
     assert r.energy_J == 0.0 and np.all(rig.last_levels == 0)
     assert r.abort_reaction_frames is not None and r.abort_reaction_frames <= 1     # within one frame
+
+
+def test_early_contact_can_be_logged_instead_of_aborting():
+    ctl = GraspController(N, range(N), _params(early_contact="continue"), _linear_map)
+    _drive(ctl, _still(4))
+    dx, dy, valid = _still(1)[0]
+    dx[5] = 6.0
+    c = ctl.step(4 / FPS, dx, dy, valid)
+    assert c.phase == "descend" and any("continuing" in e[2] for e in ctl.log.events)

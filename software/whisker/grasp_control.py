@@ -61,6 +61,8 @@ class ControlParams:
     regrips: int = 2
     model_tolerance: float = 0.15           # share of the expected free closing treated as model error
     step_down: str = "top"                  # "grip": before the lift; "top": after the lift (hold only)
+    early_contact: str = "abort"            # a whisker in contact before actuation: "abort" (fail safe,
+                                            # the rule) or "continue" (log it and grasp anyway)
     lost_frames: int = 2
     max_gap_frames: float = 2.5
 
@@ -162,8 +164,13 @@ class GraspController:
         if self.phase == "descend":
             if self.est.ready and np.any(contact):
                 w = int(np.flatnonzero(contact)[0])
-                return self._abort(t, f"contact before actuation: whisker {w} displaced "
-                                      f"{float(np.hypot(*self.est.displacement[w])):.1f} px", arm=+50.0)
+                why = (f"contact before actuation: whisker {w} displaced "
+                       f"{float(np.hypot(*self.est.displacement[w])):.1f} px")
+                if p.early_contact == "abort":
+                    return self._abort(t, why, arm=+50.0)
+                if not self._early_logged:
+                    self._early_logged = True
+                    self.log.events.append((round(t, 4), "descend", why + " (continuing)"))
             if self._h <= p.grasp_height_mm + 1e-9:
                 if not self.est.ready:
                     return self._abort(t, "descent ended before the rest frames were learned")

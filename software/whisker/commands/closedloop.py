@@ -23,8 +23,10 @@ DEFAULT_SCENE = Path(__file__).resolve().parents[1] / "sim" / "scenes" / "grasp.
               help="Only the configurations with these many whiskers (repeatable: 8, 4, 2).")
 @click.option("--out", type=click.Path(file_okay=False), default="runs/grasp-closed", show_default=True,
               help="Folder for closed_loop.md, closed_loop.json and closed_loop_runs.csv.")
+@click.option("--early-contact", type=click.Choice(["abort", "continue"]), default="abort", show_default=True,
+              help="A whisker touched before any coil is driven: abort (fail safe) or log it and grasp anyway.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
-def cli(scene_path, attempts, fps, objects, counts, out, quiet):
+def cli(scene_path, attempts, fps, objects, counts, out, early_contact, quiet):
     """Grasp the scene's objects open loop (the paper: 3 V, lift, hope) and closed loop (camera ->
     tracker -> states -> controller: grip on contact, lowest holding level, slip re-grip, fail
     safe), on the same placements, and write the paired table (docs/states.md)."""
@@ -49,7 +51,7 @@ def cli(scene_path, attempts, fps, objects, counts, out, quiet):
             bar.n = round(f, 4)
             bar.refresh()
         tab = closed_loop_table(scene, design, attempts=attempts, fps=fps, configs=cfgs, objects=list(objects) or None,
-                                progress=progress)
+                                progress=progress, params={"early_contact": early_contact})
         bar.close()
     except (SceneError, ValueError) as err:
         fail(f"closedloop: {err}")
