@@ -110,6 +110,10 @@ class GraspController:
         self._holding = np.zeros(self.n, dtype=bool)
         self._gap0 = np.zeros(self.n)
         self._pause_until = -math.inf
+        self._t_top = math.inf
+        self._next = "lift"
+        self._d = np.zeros((self.n, 2))
+        self._early_logged = False
         self._lifted = 0.0
 
     # -- helpers ------------------------------------------------------------------------------
