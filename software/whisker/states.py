@@ -251,12 +251,12 @@ class AdaptiveEstimator:
             self._t0 = t
         if not self.ready:
             self._learn.append(xy)
-            self._t_prev = t
-            if t - self._t0 >= p.learn_s and len(self._learn) >= p.learn_frames:
-                arr = np.array(self._learn)
-                self.calibrate(arr[..., 0], arr[..., 1])
-                self._past = [(t, xy.copy())]
-            return self.labels.copy()
+            if not (t - self._t0 >= p.learn_s and len(self._learn) >= p.learn_frames):
+                self._t_prev = t
+                return self.labels.copy()
+            arr = np.array(self._learn)
+            self.calibrate(arr[..., 0], arr[..., 1])      # then this frame is judged too
+            self._past = [(self._t_prev, arr[-2])] if len(arr) > 1 else [(t, xy.copy())]
         dt = t - self._t_prev
         self._t_prev = t
         ok = np.all(np.isfinite(xy), axis=1)
@@ -281,8 +281,12 @@ class AdaptiveEstimator:
         self._hist.append((t, ch))
         while self._hist and self._hist[0][0] < t - p.motion_s:
             self._hist.pop(0)
-        with np.errstate(all="ignore"):
-            med = np.nanmedian(np.array([h[1] for h in self._hist]), axis=0)
+        arr = np.array([h[1] for h in self._hist])
+        if np.all(np.isfinite(arr)):
+            med = np.median(arr, axis=0)          # nanmedian's masked path is ~30x slower on small arrays
+        else:
+            with np.errstate(all="ignore"):
+                med = np.nanmedian(arr, axis=0)
         med = np.where(np.isfinite(med), med, 0.0)
         # |change| of pure noise is Rayleigh with scale sqrt(2) sigma: median 1.665 sigma
         noise_med = 1.665 * self.sigma.mean(axis=1)

@@ -148,6 +148,7 @@ class SimGraspRig:
         self.tracker.calibrate([self._render(rest_px, 10_000_000 + j) for j in range(5)])
         self.k = 0
         self.hidden: set[int] = set()
+        self.touched = np.zeros(self.n, dtype=bool)      # touches since the last frame (truth)
         self.last_levels = np.zeros(self.n)
         import mujoco
         ids = {mujoco.mj_name2id(self.sim.model, mujoco.mjtObj.mjOBJ_GEOM, f"{p}{i}"): i
@@ -193,7 +194,16 @@ class SimGraspRig:
         self.last_levels = levels.copy()
         h1 = self.h + arm_mm_s * self.period
         T = self.sim.drive.T.copy()
-        self.sim.advance(levels, self._arm(self.h), self._arm(h1), self.nstep)
+        # in chunks, to catch touches that begin and end between two frames (a tip bouncing off)
+        chunk = max(1, self.scene.contact.chunk)
+        done = 0
+        while done < self.nstep:
+            m = min(chunk, self.nstep - done)
+            a0 = self._arm(self.h + arm_mm_s * self.period * done / self.nstep)
+            a1 = self._arm(self.h + arm_mm_s * self.period * (done + m) / self.nstep)
+            self.sim.advance(levels, a0, a1, m)
+            self.touched |= self.touching()
+            done += m
         self.h = h1
         self.t += self.period
         T2 = self.sim.drive.T
@@ -229,7 +239,8 @@ def run_grasp(rig: SimGraspRig, controller, *, hold_height_mm: float, max_s: flo
         if cmd is not None and drop_frame is not None and drop_frame(rig):
             rig.advance(cmd.levels, cmd.arm_mm_s)
             continue
-        touching = rig.touching()
+        touching = rig.touching() | rig.touched
+        rig.touched = np.zeros(rig.n, dtype=bool)
         if tracked and controller.phase in ("descend", "close", "tighten"):
             touched_at[touching & (touched_at < 0)] = frames + 1       # this frame's number
         t0 = time.perf_counter()
