@@ -101,9 +101,13 @@ def main() -> None:
         md.append("")
     md.append("![labels](states.png)")
     md.append("")
-    lat_rows, lat_md = closed_loop_latency()
-    write_csv("states_closed_loop_latency.csv", lat_rows)
-    md.append(lat_md)
+    import importlib.util
+    if importlib.util.find_spec("mujoco") is None:
+        md.append("(closed-loop latency skipped: MuJoCo, the `sim` extra, is not installed)")
+    else:
+        lat_rows, lat_md = closed_loop_latency()
+        write_csv("states_closed_loop_latency.csv", lat_rows)
+        md.append(lat_md)
     write_text("states.md", "\n".join(md) + "\n")
     if example is not None:
         plot_example(example)

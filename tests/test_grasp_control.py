@@ -112,6 +112,7 @@ def test_thermal_guard_limits_the_levels():
 
 @pytest.fixture(scope="module")
 def grasp_setup():
+    pytest.importorskip("mujoco", reason="MuJoCo (the `sim` extra) is needed for the simulator backend")
     from whisker.sim import load_scene, scene_design
     from whisker.sim.closed_loop import free_closing_px
     from whisker.sim.paper import experiment_objects

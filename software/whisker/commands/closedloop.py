@@ -55,6 +55,8 @@ def cli(scene_path, attempts, fps, objects, counts, out, early_contact, quiet):
         bar.close()
     except (SceneError, ValueError) as err:
         fail(f"closedloop: {err}")
+    except ImportError as err:
+        fail(f"closedloop: the simulator needs {err.name or err} (pip install -e '.[sim]')", code=1)
     out = Path(out)
     md = closed_loop_markdown(tab)
     atomic_write_text(out / "closed_loop_runs.csv", closed_loop_csv(tab))
