@@ -282,6 +282,10 @@ def plan(scene: Scene, design) -> Plan:
     if not contact and tips_low:
         contact, why = True, "the tips reach the table top (tip height <= 0 mm on the path)"
     effects.append(Effect("contact", contact, why, needs=("kinematics", "gravity")))
+    from whisker.sim.airflow import effect as airflow_effect
+    effects.append(airflow_effect(scene.airflow, design, body.stiffness if body is not None else None))
+    if scene.airflow.on and contact:
+        raise SceneError("airflow with contact is not modelled in MuJoCo yet: remove the objects or the [airflow] section")
     cam_wanted = scene.outputs.frames or scene.outputs.video or scene.outputs.tracks
     cam = scene.camera.enabled and cam_wanted
     effects.append(Effect("camera", cam,
@@ -295,7 +299,7 @@ def plan(scene: Scene, design) -> Plan:
                           if trk else "no camera tracks asked for", needs=("camera",)))
     # solver
     static_ok = (not contact and not moves and not scene.actuation_changes
-                 and scene.scene.initial_tilt_deg == 0)
+                 and scene.scene.initial_tilt_deg == 0 and not scene.airflow.on)
     if fid.solver == "static" and not static_ok:
         raise SceneError("fidelity.solver = 'static' but the scene moves (contact, path or a changing "
                          "actuation level); use 'auto' or 'dynamic'")

@@ -28,6 +28,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from whisker.design import one_line_errors, parse_value
+from whisker.sim.airflow import AirflowSpec
 from whisker.files import read_toml
 
 
@@ -333,6 +334,7 @@ class Scene(_S):
     fidelity: Fidelity = Fidelity()
     contact: ContactSpec = ContactSpec()
     experiment: Experiment = Experiment()
+    airflow: AirflowSpec = AirflowSpec()
     base_dir: str = Field(".", description="folder relative paths resolve against (set by load_scene)")
 
     @model_validator(mode="after")

@@ -172,6 +172,10 @@ def _free(scene, design, plan, body, progress, record_hz) -> Result:
     rec_t, rec_th, rec_om, rec_lv, rec_T = [], [], [], [], []
     # event times are honoured exactly: levels are sampled at the start of each step
     table = levels_table(scene, n, np.arange(steps + 1) * dt)
+    wind = None
+    if plan.built("airflow"):
+        from whisker.sim.airflow import AirflowDrag
+        wind = AirflowDrag(design, scene.airflow, seed=scene.scene.seed)
     for k in range(steps + 1):
         t = k * dt
         lv = table[k]
@@ -186,6 +190,9 @@ def _free(scene, design, plan, body, progress, record_hz) -> Result:
         tau = np.zeros((n, 2))
         tau[:, 0] = drive.torque(body, theta[:, 0], I)
         tau += gravity_torque(body, theta, facing)
+        if wind is not None:
+            tau += wind.torque(t)
+            wind.step(dt)
         theta, omega = step_free(body, theta, omega, tau, dt, method)
         drive.heat(dt)
         _check_finite("whisker tilt", theta, t)

@@ -1,0 +1,161 @@
+"""The adaptive state estimator, scoring, the tracks reader, `whisker states` and `whisker live`."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from conftest import run_cli
+from whisker.design import load_design
+from whisker.states import (CONTACT, DYNAMIC, REST, AdaptiveEstimator, AuthorsEstimator, StateInputError,
+                            make_estimator, run_estimator, state_scores)
+from whisker.trackfile import TracksError, read_tracks
+
+
+@pytest.fixture(scope="module")
+def design():
+    return load_design()
+
+
+def _step(fps, n_rest_s=1.5, n_hold_s=1.0, amp=5.0, sigma=0.2, seed=0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(0, n_rest_s + n_hold_s, 1 / fps)
+    dx = np.where(t >= n_rest_s, amp, 0.0) + rng.normal(0, sigma, t.size)
+    dy = rng.normal(0, sigma, t.size)
+    return t, dx[:, None], dy[:, None], int(np.argmax(t >= n_rest_s))
+
+
+@pytest.mark.parametrize("fps", [15, 90])
+def test_adaptive_labels_a_held_push_contact_in_the_first_frame(fps):
+    t, dx, dy, k0 = _step(fps)
+    lab = run_estimator(AdaptiveEstimator(1), t, dx, dy)[:, 0]
+    assert np.all(lab[:k0] == REST)
+    assert lab[k0] == CONTACT                     # reacts within the frame of the contact
+    assert np.mean(lab[k0:] == CONTACT) > 0.97
+    # the authors' method needs a full window: dynamic first, contact only ~N frames later
+    auth = run_estimator(AuthorsEstimator(1), t, dx, dy)[:, 0]
+    assert auth[k0] != CONTACT
+
+
+def test_own_actuation_is_not_contact_when_the_command_is_known():
+    t, dx, dy, k0 = _step(30)
+    exp = np.zeros((t.size, 1, 2))
+    exp[k0:, 0, 0] = 5.0                           # the coil was told to move it 5 px
+    lab = run_estimator(AdaptiveEstimator(1), t, dx, dy, exp)[:, 0]
+    assert np.mean(lab[k0:] == REST) > 0.95
+    assert np.mean(run_estimator(AdaptiveEstimator(1), t, dx, dy)[k0:, 0] == CONTACT) > 0.95
+
+
+@settings(max_examples=20, deadline=None)
+@given(sigma=st.floats(0.01, 3.0), offset=st.floats(-20, 20), fps=st.sampled_from([15.0, 30.0, 90.0]))
+def test_noise_is_learned_per_whisker(sigma, offset, fps):
+    """Still whiskers at any offset and any tracking noise stay at rest after the learning second."""
+    rng = np.random.default_rng(1)
+    t = np.arange(0, 6.0, 1 / fps)
+    dx = offset + rng.normal(0, sigma, (t.size, 2))
+    dy = rng.normal(0, sigma, (t.size, 2))
+    lab = run_estimator(AdaptiveEstimator(2), t, dx, dy)
+    assert np.mean(lab == REST) > 0.97
+
+
+def test_oscillation_is_dynamic_at_any_frame_rate():
+    for fps in (15, 90):
+        t = np.arange(0, 5.0, 1 / fps)
+        rng = np.random.default_rng(2)
+        osc = np.where(t > 2.0, 3.0 * np.sin(2 * np.pi * 2.3 * t), 0.0)
+        lab = run_estimator(AdaptiveEstimator(1), t, (osc + rng.normal(0, 0.2, t.size))[:, None],
+                            rng.normal(0, 0.2, (t.size, 1)))[:, 0]
+        assert np.mean(lab[t > 2.6] == DYNAMIC) > 0.9, fps
+
+
+def test_lost_marker_holds_the_label_and_counts():
+    t, dx, dy, k0 = _step(30)
+    dx[k0 + 5:k0 + 8] = np.nan
+    est = AdaptiveEstimator(1)
+    lab = run_estimator(est, t[:k0 + 8], dx[:k0 + 8], dy[:k0 + 8])[:, 0]
+    assert np.all(lab[k0 + 4:] == CONTACT) and est.lost[0] == 3
+
+
+def test_bad_frames_are_refused():
+    est = AdaptiveEstimator(2)
+    est.update(0.0, [0, 0], [0, 0])
+    with pytest.raises(StateInputError, match="increase"):
+        est.update(0.0, [0, 0], [0, 0])
+    with pytest.raises(StateInputError, match="unknown state method"):
+        make_estimator("nope", 2)
+
+
+def test_state_scores_on_a_hand_case():
+    truth = np.array([[0], [0], [1], [1], [1], [0], [2], [2]])
+    labels = np.array([[0], [1], [2], [1], [1], [1], [2], [2]])
+    sc = state_scores(truth, labels)
+    assert sc["accuracy"]["contact"] == pytest.approx(2 / 3)
+    assert sc["accuracy"]["rest"] == pytest.approx(1 / 3)
+    assert sc["latency"]["contact"] == [1] and sc["latency"]["dynamic"] == [0]
+    assert sc["latency"]["rest"] == [] and sc["missed"]["rest"] == 1
+
+
+def test_adaptive_beats_the_authors_method_on_a_simulated_sequence(design):
+    from whisker.sim.state_sequences import labelled_sequence
+
+    seq = labelled_sequence(design, fps=15, seed=7)
+    assert {REST, CONTACT, DYNAMIC} <= set(np.unique(seq.truth))
+    bal = {}
+    for m in ("authors", "adaptive"):
+        lab = run_estimator(make_estimator(m, 8), seq.t_s, seq.dx_px, seq.dy_px, seq.expected_px)
+        bal[m] = np.mean(list(state_scores(seq.truth, lab)["accuracy"].values()))
+    assert bal["adaptive"] > 0.8 and bal["adaptive"] > bal["authors"] + 0.2
+
+
+# --- tracks files and commands ------------------------------------------------------------------
+
+def _write_track_csv(path, frames=40, n=2):
+    from whisker.commands.track import CSV_HEADER
+    rows = [CSV_HEADER]
+    for k in range(frames):
+        for w in range(n):
+            dx = 6.0 if (w == 1 and k >= 30) else 0.01 * ((k * 7 + w) % 5)
+            valid = "0" if (w == 0 and k == 35) else "1"
+            rows.append(f"{k},{k / 15:.4f},{w},100,100,{dx:.4f},0.0000,{valid},ok,0,0,0,0")
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def test_read_tracks_both_layouts(tmp_path):
+    tr = read_tracks(_write_track_csv(tmp_path / "t.csv"))
+    assert tr.dx_px.shape == (40, 2) and np.isnan(tr.dx_px[35, 0]) and tr.dx_px[31, 1] == 6.0
+    (tmp_path / "a.csv").write_text("Time,dx,dy\n0.0,0,0\n0.1,1.5,2\n")
+    tr = read_tracks(tmp_path / "a.csv")
+    assert tr.layout == "authors" and tr.dy_px[1, 0] == 2.0
+    (tmp_path / "b.csv").write_text("Time,dx,dy\n0.0,0,0\n0.0,1,1\n")
+    with pytest.raises(TracksError, match="does not increase"):
+        read_tracks(tmp_path / "b.csv")
+    (tmp_path / "c.csv").write_text("a,b\n1,2\n")
+    with pytest.raises(TracksError, match="unknown columns"):
+        read_tracks(tmp_path / "c.csv")
+
+
+def test_states_command(tmp_path):
+    src = _write_track_csv(tmp_path / "t.csv")
+    res = run_cli("states", str(src), "--out", str(tmp_path / "s.csv"))
+    assert res.returncode == 0, res.stderr
+    lines = [json.loads(x) for x in res.stdout.splitlines()]
+    assert len(lines) == 40 and lines[-1]["states"][1] == "contact" and lines[35]["dx"][0] is None
+    body = (tmp_path / "s.csv").read_text().splitlines()
+    assert len(body) == 1 + 80 and body[-1].endswith(",contact")
+    bad = run_cli("states", str(tmp_path / "missing.csv"))
+    assert bad.returncode == 2 and "does not exist" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_live_on_the_simulator_streams_json(tmp_path):
+    res = run_cli("live", "--source", "sim", "--fps", "90", "--max-frames", "6", "--record", str(tmp_path / "v.mp4"))
+    assert res.returncode == 0, res.stderr
+    lines = [json.loads(x) for x in res.stdout.splitlines()]
+    assert len(lines) == 6 and all(len(x["states"]) == 8 and all(x["valid"]) for x in lines)
+    assert (tmp_path / "v.mp4").stat().st_size > 1000
+    bad = run_cli("live", "--source", str(tmp_path / "nothing.mp4"))
+    assert bad.returncode == 2 and "Traceback" not in bad.stderr
