@@ -16,5 +16,5 @@ preview: $(BIN)/.installed ## PNG images of each printable part and the assembly
 	$(BIN)/whisker cad build $(DESIGN_ARGS) --out $(OUT) -q
 	$(BIN)/whisker print preview $(DESIGN_ARGS) --out $(OUT) --images $(PREVIEW)
 
-assembly-images: $(BIN)/.installed ## PNG per assembly step, exploded along its path (into $(ASSEMBLY_IMAGES))
-	$(BIN)/whisker cad assembly-images $(DESIGN_ARGS) --out $(ASSEMBLY_IMAGES)
+assembly-images: $(BIN)/.installed ## PNG per assembly step, exploded along its path (into $(ASSEMBLY_IMAGES)), the table in docs/assembly.md
+	$(BIN)/whisker cad assembly-images $(DESIGN_ARGS) --out $(ASSEMBLY_IMAGES) --page docs/assembly.md

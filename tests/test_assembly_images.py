@@ -69,3 +69,31 @@ def test_cli_writes_the_images_and_refuses_a_bad_size(tmp_path):
     bad = CliRunner().invoke(cli, ["assembly-images", "--out", str(tmp_path), "--size", "big"])
     assert bad.exit_code == 2 and "--size" in bad.output and "Traceback" not in bad.output
     assert not list(tmp_path.iterdir())
+
+
+def test_the_committed_page_holds_the_current_sequence_table(tmp_path):
+    d = default_design()
+    page = DOCS.parents[1] / "assembly.md"
+    assert ai.sequence_table(d) in page.read_text(), "docs/assembly.md is stale: run make assembly-images"
+    table = ai.sequence_table(d)
+    for step in sequence.load_steps():
+        assert f"| {step.name} |" in table
+    # the block is replaced, the text around it kept; a page without the block is refused
+    copy = tmp_path / "a.md"
+    copy.write_text(f"before\n{ai.TABLE_BEGIN}\nold\n{ai.TABLE_END}\nafter\n")
+    assert ai.update_page(copy, d) and not ai.update_page(copy, d)
+    text = copy.read_text()
+    assert text.startswith("before\n") and text.endswith("after\n") and "old" not in text
+    copy.write_text("no table here\n")
+    with pytest.raises(ValueError, match="SEQUENCE TABLE"):
+        ai.update_page(copy, d)
+
+
+def test_the_pages_link_only_pictures_that_exist():
+    import re
+
+    docs = DOCS.parents[1]
+    for page in ("bringup.md", "assembly.md"):
+        links = re.findall(r'src="(images/assembly/[^"]+)"', (docs / page).read_text())
+        assert links, page
+        assert all((docs / link).is_file() for link in links), page

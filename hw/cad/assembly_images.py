@@ -58,6 +58,7 @@ class View:
     casting: bool = False
     variant: str = "all"
     staggered: bool = False       # the new parts go in one after the other: drawn 1x, 2x, ... as far out
+    after: tuple[str, ...] = ()   # steps that must be done first (the sequence's `after`)
 
     def file_name(self, index: int) -> str:
         return f"step_{index:02d}_{slug(self.name)}.png"
@@ -71,7 +72,8 @@ CASTING = (
     View("mould", "casting 1: mould lid on the base, a rod through every lid guide into its socket",
          ("mold_base",), ("mold_lid", "cast_rods"), (("-z", "travel"),), casting=True, staggered=True),
     View("casting with the ring jig", "casting 2: whisker ring on the lid over the rod tips (section)",
-         ("mold_base", "mold_lid", "cast_rods"), ("whisker_ring",), (("-z", "travel"),), casting=True),
+         ("mold_base", "mold_lid", "cast_rods"), ("whisker_ring",), (("-z", "travel"),), casting=True,
+         after=("mould",)),
 )
 
 
@@ -85,8 +87,59 @@ def views(steps: list[sequence.Step] | None = None) -> list[View]:
     for k, step in enumerate(steps):
         earlier = [p for s in steps[:k] if s.variant in ("all", step.variant) for p in s.parts]
         out.append(View(step.name, step.name, ("mount", *earlier), step.parts, step.path, step.flexible,
-                        variant=step.variant))
+                        variant=step.variant, after=step.after))
     return out
+
+
+#: How the sequence's path directions read in the guide.
+DIRECTION_WORDS = {"-z": "down", "+z": "up", "+x": "along +x", "-x": "along -x", "+y": "along +y",
+                   "-y": "along -y", "radial_out": "radially out", "radial_in": "radially in"}
+PART_WORDS = {"mold_base": "mould base", "mold_lid": "mould lid", "cast_rods": "rods", "whisker_ring": "whisker ring",
+              "led_strip": "LED strip", "camera": "camera board"}
+TABLE_BEGIN, TABLE_END = "<!-- BEGIN SEQUENCE TABLE (make assembly-images) -->", "<!-- END SEQUENCE TABLE -->"
+
+
+def path_text(view: View, d: Design) -> str:
+    """The insertion path in words, with the lengths the design gives (mm)."""
+    if view.flexible:
+        return "bent into place"
+    dist = sequence.distances(d)
+    words = []
+    for kind, length in view.path:
+        how = DIRECTION_WORDS.get(kind, kind)
+        if length == "travel":
+            words.append(f"{how}, from clear of everything")
+        else:
+            L = dist[length] if isinstance(length, str) else float(length)
+            words.append(f"{how} {L:.1f} mm" + (f" ({length})" if isinstance(length, str) else ""))
+    return ", then ".join(words)
+
+
+def sequence_table(d: Design, image_dir: str = "images/assembly") -> str:
+    """The Markdown table of docs/assembly.md: one row per view, from the sequence data."""
+    rows = ["| # | step | new parts | path | first | variant | picture |", "| --- | --- | --- | --- | --- | --- | --- |"]
+    for i, v in enumerate(views(), start=1):
+        parts = ", ".join(PART_WORDS.get(p, p) for p in v.new)
+        first = "; ".join(v.after) or "-"
+        src = f"{image_dir}/{v.file_name(i)}"
+        img = f'<a href="{src}"><img src="{src}" alt="{v.name}" width="260"></a>'
+        rows.append(f"| {i} | {v.title} | {parts} | {path_text(v, d)} | {first} | {v.variant} | {img} |")
+    return "\n".join(rows)
+
+
+def update_page(page: Path, d: Design) -> bool:
+    """Replace the table between TABLE_BEGIN and TABLE_END in `page` (atomically); True if it changed."""
+    from whisker.files import atomic_write_text
+
+    text = Path(page).read_text()
+    head, sep, rest = text.partition(TABLE_BEGIN)
+    _, sep2, tail = rest.partition(TABLE_END)
+    if not (sep and sep2):
+        raise ValueError(f"{page}: no {TABLE_BEGIN} ... {TABLE_END} block to fill")
+    new = f"{head}{TABLE_BEGIN}\n{sequence_table(d)}\n{TABLE_END}{tail}"
+    if new != text:
+        atomic_write_text(page, new)
+    return new != text
 
 
 def explode_distance(d: Design) -> float:
