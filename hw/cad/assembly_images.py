@@ -145,7 +145,7 @@ def update_page(page: Path, d: Design) -> bool:
 def explode_distance(d: Design) -> float:
     """How far a part that comes from "travel" away is drawn from its place: the mount's outer
     radius (mm), enough to clear it in the picture without making the sensor small."""
-    return float(d.mount.outer_radius) if isinstance(d.mount.outer_radius, (int, float)) else 20.0
+    return float(d.mount.outer_radius)
 
 
 def _pieces(d: Design, part: str) -> list[tuple[str, trimesh.Trimesh]]:
