@@ -179,13 +179,12 @@ def scene(d: Design, view: View, cache: dict | None = None
         return cache[part]
 
     dist = dict(sequence.distances(d), travel=explode_distance(d))
-    items: list[tuple[trimesh.Trimesh, str]] = []
+    items: list[tuple[trimesh.Trimesh, str, str]] = []  # mesh, colour, part
     for part in view.placed:
         for key, mesh in pieces(part):
-            items.append((_half(mesh) if part in CUT else mesh, NEUTRAL[key]))
+            items.append((_half(mesh) if part in CUT else mesh, NEUTRAL[key], part))
     paths: list[np.ndarray] = []
-    seen: set[tuple[float, float]] = set()
-    new_items = []
+    seen: set[tuple[float, float, bool]] = set()
     for depth, part in enumerate(view.new):
         for key, mesh in pieces(part):
             moves = _moves(mesh, view.path, dist) if view.path and not view.flexible else []
@@ -193,7 +192,7 @@ def scene(d: Design, view: View, cache: dict | None = None
                 moves = [mv * (1 + depth) for mv in moves]
             total = np.sum(moves, axis=0) if moves else np.zeros(3)
             shown = mesh.copy().apply_translation(-total)
-            new_items.append((_half(shown) if part in CUT else shown, HIGHLIGHT))
+            items.append((_half(shown) if part in CUT else shown, HIGHLIGHT, part))
             if moves:
                 # the arrow ends on the piece's leading face, where it meets its place
                 u = moves[-1] / max(np.linalg.norm(moves[-1]), 1e-9)
@@ -206,12 +205,11 @@ def scene(d: Design, view: View, cache: dict | None = None
                 for mv in moves:
                     pts.append(pts[-1] + mv)
                 paths.append(np.array(pts))
-    items += new_items
     if not view.casting:
-        top = max(m.bounds[1, 2] for m, c in items if c != NEUTRAL["rod"]) + ROD_VIEW_ABOVE
-        items = [(_clip_top(m, top), c) for m, c in items]
+        top = max(m.bounds[1, 2] for m, _, part in items if part != "rods") + ROD_VIEW_ABOVE
+        items = [(_clip_top(m, top), c, part) for m, c, part in items]
         paths = [np.clip(p, None, [np.inf, np.inf, top]) for p in paths]
-    return [(m, c) for m, c in items if len(m.faces)], paths
+    return [(m, c) for m, c, _ in items if len(m.faces)], paths
 
 
 def _half(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
