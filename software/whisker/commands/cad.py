@@ -97,8 +97,8 @@ def sweep(design_file, overrides, counts, radii, out, workers):
 
 @cli.command("assembly-images")
 @design_options
-@click.option("--out", type=click.Path(file_okay=False), default="docs/images/assembly", show_default=True,
-              help="Folder for step_NN_<name>.png.")
+@click.option("--out", type=click.Path(file_okay=False), default="exports/assembly", show_default=True,
+              help="Folder for step_NN_<name>.png (`make assembly-images`: docs/images/assembly).")
 @click.option("--size", default="900x700", show_default=True, help="Image size in pixels, WxH.")
 @click.option("--page", type=click.Path(dir_okay=False, exists=True), default=None,
               help="Markdown page whose sequence table (between its BEGIN/END SEQUENCE TABLE comments) is "
