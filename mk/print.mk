@@ -2,7 +2,7 @@
 #   make check-print                 slice every printable part of the default design (PrusaSlicer)
 #   make check-print WHISKERS=12     the same for a 12-whisker design
 #   make preview PREVIEW=docs/images/parts refresh the README's images (default design only)
-#   make assembly-images             one picture per assembly step into docs/images/assembly (docs/assembly.md)
+#   make assembly-images             one picture per assembly step into docs/images/assembly + docs/assembly.md (default design only)
 PREVIEW ?= $(OUT)/preview
 ASSEMBLY_IMAGES ?= docs/images/assembly
 
