@@ -50,16 +50,21 @@ def shade(mesh: trimesh.Trimesh, color: str, ambient: float = 0.35) -> np.ndarra
 
 
 def render(meshes: list[tuple[trimesh.Trimesh, str]], title: str, size_px: tuple[int, int] = (900, 700),
-           elev: float = 28.0, azim: float = -58.0, bed: tuple[float, float] | None = None) -> bytes:
-    """PNG bytes of the meshes (each with a colour) seen from (elev, azim) in degrees."""
+           elev: float = 28.0, azim: float = -58.0, bed: tuple[float, float] | None = None,
+           paths: list[np.ndarray] | None = None, path_color: str = "#1f4e79") -> bytes:
+    """PNG bytes of the meshes (each with a colour) seen from (elev, azim) in degrees.
+
+    `paths`: polylines (N x 3, mm) drawn dashed over the meshes with an arrow head at their end
+    (assembly pictures: where a part goes)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    lo = np.min([m.bounds[0] for m, _ in meshes], axis=0)
-    hi = np.max([m.bounds[1] for m, _ in meshes], axis=0)
+    paths = [np.asarray(p, float) for p in paths or [] if len(p) > 1]
+    lo = np.min([m.bounds[0] for m, _ in meshes] + [p.min(0) for p in paths], axis=0)
+    hi = np.max([m.bounds[1] for m, _ in meshes] + [p.max(0) for p in paths], axis=0)
     # Painter's algorithm sorts whole faces: long faces sort wrongly, so split them to a fine size.
     meshes = [(fine(m, max(hi - lo) / FINENESS), c) for m, c in meshes]
     tris = np.concatenate([m.triangles for m, _ in meshes])
@@ -68,6 +73,13 @@ def render(meshes: list[tuple[trimesh.Trimesh, str]], title: str, size_px: tuple
     fig = plt.figure(figsize=(size_px[0] / dpi, size_px[1] / dpi), dpi=dpi)
     ax = fig.add_subplot(projection="3d")
     ax.add_collection3d(Poly3DCollection(tris, facecolors=cols, edgecolors=cols, linewidths=0.1))
+    if paths:  # on top of the meshes (mplot3d would sort a line as one object among the faces)
+        ax.computed_zorder = False
+        for p in paths:
+            ax.plot(*p.T, color=path_color, lw=1.4, ls="--", zorder=10)
+            u = p[-1] - p[-2]
+            u = u / max(np.linalg.norm(u), 1e-9) * 0.05 * max(hi - lo)  # a head 5 % of the view long
+            ax.quiver(*(p[-1] - u), *u, color=path_color, lw=1.6, arrow_length_ratio=0.9, zorder=11)
     if bed is not None:  # a square of bed around the part, not the whole bed
         pad = 0.15 * max(hi[:2] - lo[:2]) + 2
         bx = [lo[0] - pad, hi[0] + pad, hi[0] + pad, lo[0] - pad, lo[0] - pad]

@@ -93,3 +93,40 @@ def sweep(design_file, overrides, counts, radii, out, workers):
     ok = sum(r["feasible"] for r in rows)
     click.echo(f"{ok} of {len(rows)} designs feasible ({per:.2f} s per design); wrote "
                + ", ".join(str(p) for p in paths))
+
+
+@cli.command("assembly-images")
+@design_options
+@click.option("--out", type=click.Path(file_okay=False), default="exports/assembly", show_default=True,
+              help="Folder for step_NN_<name>.png (`make assembly-images`: docs/images/assembly).")
+@click.option("--size", default="900x700", show_default=True, help="Image size in pixels, WxH.")
+@click.option("--page", type=click.Path(dir_okay=False, exists=True), default=None,
+              help="Markdown page whose sequence table (between its BEGIN/END SEQUENCE TABLE comments) is "
+                   "rewritten from hw/assembly_sequence.toml, e.g. docs/assembly.md.")
+def assembly_images(design, out, size, page):
+    """One PNG per assembly step: the casting steps, then every step of hw/assembly_sequence.toml.
+
+    Parts already in place are grey, the step's new parts orange, moved back along their
+    insertion path (drawn as a dashed arrow); the mount and mould are cut open on the x-z plane.
+    """
+    from whisker.cad.assembly_images import update_page, write_assembly_images
+    from whisker.design import DesignError
+
+    try:
+        w, h = (int(v) for v in size.lower().split("x"))
+        if w < 100 or h < 100:
+            raise ValueError
+    except ValueError:
+        fail(f"--size {size!r}: expected WIDTHxHEIGHT of at least 100x100 pixels, e.g. 900x700")
+    try:
+        paths = write_assembly_images(design, Path(out), (w, h), progress=lambda p: click.echo(f"  wrote {p}", err=True))
+        if page:
+            changed = update_page(Path(page), design)
+            click.echo(f"  {'updated' if changed else 'unchanged'}: the sequence table in {page}", err=True)
+    except DesignError as err:
+        fail(f"design refused: {err}")
+    except OSError as err:
+        fail(f"cannot write the images into {out}/: {err}", code=1)
+    except ValueError as err:  # the page has no table block
+        fail(str(err))
+    click.echo(f"wrote {len(paths)} assembly images into {out}/")
