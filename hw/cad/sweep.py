@@ -84,7 +84,7 @@ def write_reports(rows: list[dict], out: Path) -> list[Path]:
     ok = sum(r["feasible"] for r in rows)
     lines = ["# Feasible designs: whisker count x ring radius", "",
              f"{ok} of {len(rows)} designs build and pass every check. `ok` builds; otherwise the physical "
-             "conflict that refused it. `|` marks the first radius on the feasible side of the "
+             "conflict that refused it. Bold: the first radius on the feasible side of the "
              f"{BOUND_TEXT} (docs/sweep.md).", "",
              "| count \\ radius (mm) | bound (mm) | " + " | ".join(f"{r:g}" for r in radii) + " |",
              "|---|---|" + "---|" * len(radii)]
@@ -95,7 +95,7 @@ def write_reports(rows: list[dict], out: Path) -> list[Path]:
             c = cell[(n, r)]
             text = "ok" if c["feasible"] else _short(c["conflict"])
             edge = bound != "" and r >= bound and not any(bound <= q < r for q in radii)
-            marks.append(("| " if edge else "") + text)
+            marks.append(f"**{text}**" if edge else text)
         lines.append(f"| {n} | {bound} | " + " | ".join(marks) + " |")
     reasons = sorted({r["conflict"] for r in rows if not r["feasible"]})
     lines += ["", "Conflicts seen:", *[f"- `{x}`" for x in reasons], ""]
