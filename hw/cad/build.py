@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 
 from whisker.design import Design
-from whisker.files import atomic_write_json, publish, staging_dir
+from whisker.files import atomic_write_json, drop_stale_staging, publish, staging_dir
 
 from . import checks, sequence
 from .assembly import export_step, sensor_assembly
@@ -75,7 +75,7 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = FORMATS,
         raise DesignRefused([c for c in solid if not c.ok])
 
     lin, ang = d.export.linear_tolerance, d.export.angular_tolerance
-    _drop_stale_staging(out)
+    drop_stale_staging(out)
     parts: dict[str, dict] = {}
     part_checks: dict[str, list[checks.Check]] = {}  # in part order, as the manifest lists them
     files: list[str] = []
@@ -157,14 +157,6 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = FORMATS,
         publish(tmp, out, files + ["manifest.json"], stale=old, after_each=_publish_pause())
     say(f"wrote {len(files)} files to {out}")
     return manifest
-
-
-def _drop_stale_staging(out: Path) -> None:
-    """Remove staging folders a killed build left beside `out` (one build per output folder at a time)."""
-    import shutil
-
-    for stale in out.parent.glob(f".{out.name}.tmp-*"):
-        shutil.rmtree(stale, ignore_errors=True)
 
 
 def _publish_pause() -> Callable[[str], None] | None:

@@ -73,16 +73,28 @@ def atomic_write_json(path: str | Path, obj: Any) -> Path:
     return atomic_write_text(path, json.dumps(_finite(obj), indent=2, allow_nan=False) + "\n")
 
 
+def _staging_prefix(final: Path) -> str:
+    return f".{final.name}.tmp-"
+
+
 @contextmanager
 def staging_dir(final: str | Path) -> Iterator[Path]:
     """A temporary folder beside `final` (same file system, so renames are atomic); removed afterwards."""
     final = Path(final)
     final.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.tmp-", dir=final.parent))
+    tmp = Path(tempfile.mkdtemp(prefix=_staging_prefix(final), dir=final.parent))
     try:
         yield tmp
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def drop_stale_staging(final: str | Path) -> None:
+    """Remove the staging folders a killed writer of `final` left beside it (a SIGKILL skips
+    staging_dir's cleanup); only one writer per output folder may run at a time."""
+    final = Path(final)
+    for stale in final.parent.glob(_staging_prefix(final) + "*"):
+        shutil.rmtree(stale, ignore_errors=True)
 
 
 def publish(staged: Path, final: Path, names: list[str], stale: list[str] = (),

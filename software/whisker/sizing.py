@@ -106,8 +106,7 @@ def camera_pocket_box(d: "Design") -> tuple[float, float, float, float]:
 
 def mounting_hole_angles(d: "Design") -> list[float]:
     """Robot mounting holes, deg: spaced evenly and symmetric about the camera's flat cable at -y,
-    none on it (3 holes: 90, 210, 330 deg; 4 holes: 45, 135, 225, 315 deg, which interleave with an
-    ISO 9409-1 four-bolt flange turned square to the cable)."""
+    none on it (3 holes: 90, 210, 330 deg; 2 holes: 0, 180 deg)."""
     n = d.mount.mounting_hole_count
     return [(270.0 + 180.0 / n + 360.0 * k / n) % 360.0 for k in range(n)]
 
@@ -280,7 +279,8 @@ def mounting_bolt_radius(d: "Design", auto: frozenset = frozenset()) -> float:
     m = d.mount
     need = _mounting_hole_needs(d) if m.mounting_hole_count else 0.0
     out = floor_step(m.outer_radius - d.mounting_hole_diameter / 2 - d.print.min_wall, 0.1)
-    inside = floor_step(_inside_robot_flange(d), 0.1) if math.isfinite(_inside_robot_flange(d)) else out
+    flange = _inside_robot_flange(d)
+    inside = floor_step(flange, 0.1) if math.isfinite(flange) else out
     return round(max(need, min(out, inside)), 3)
 
 
