@@ -17,7 +17,8 @@ translational ``body_invweight0`` (1/kg). Its constraint-space dynamics are
     a = (1 - d) a0 + d (-B v - K d r)           (a0: the acceleration without the contact)
 
 so at rest the contact carries F = K d^2 / (1 - d) r / A, and it rings at omega^2 = d^2 K with
-damping ratio zeta = B / (2 sqrt(K)). :func:`mujoco_contact` picks solimp (d rising from 0.9 with a
+damping ratio zeta = B / (2 sqrt(K)). B is also the friction rows' reference damping (see
+:func:`mujoco_contact`, ``min_damping``). :func:`mujoco_contact` picks solimp (d rising from 0.9 with a
 cubic sigmoid, as MuJoCo's default starts at 0.9) and K so that F(r) follows Hertz over a load range
 (least squares on log F), and B from the material's loss factor eta: zeta = eta / 2 (the viscous
 damping ratio of a loss factor at resonance; Nashif, Jones & Henderson, Vibration Damping, 1985,
@@ -138,11 +139,15 @@ class MjContact:
 
 
 def mujoco_contact(E_star: float, R: float, diag_approx: float, *, load_range_N=(1e-3, 20e-3),
-                   nominal_N: float = 2e-3, loss_factor: float = 0.1) -> MjContact:
+                   nominal_N: float = 2e-3, loss_factor: float = 0.1, min_damping: float = 0.0) -> MjContact:
     """solref/solimp making MuJoCo's contact follow Hertz over `load_range_N` (module doc).
 
     diag_approx: the pair's ``efc_diagApprox`` in the normal direction, 1/kg (the sum of the two
-    bodies' translational ``body_invweight0``); loss_factor: eta of the softer material (zeta = eta / 2).
+    bodies' translational ``body_invweight0``); loss_factor: eta of the softer material (zeta = eta / 2);
+    min_damping: the least B (1/s). MuJoCo reuses B as the reference damping of the friction rows
+    (a geom has no separate solreffriction), and a held object creeps at a speed ~ 1/B under a
+    tangential load: a B below the rigid contact's, 2 / (dmax timeconst), would let grasped objects
+    slide out by a numerical artifact, so callers pass that as the floor.
     """
     lo, hi = (float(v) for v in load_range_N)
     if not (0 < lo < hi and math.isfinite(hi)):
@@ -156,7 +161,7 @@ def mujoco_contact(E_star: float, R: float, diag_approx: float, *, load_range_N=
     r_hi = float(hertz_indentation_m(hi, E_star, R))
     K = diag_approx * c * hi / r_hi             # F(r) = K g(r) r / A = hi c g(x) x
     zeta = loss_factor / 2.0
-    B = 2.0 * zeta * math.sqrt(K)
+    B = max(2.0 * zeta * math.sqrt(K), float(min_damping))
     solimp = (SHAPE_DMIN, dmax, w * r_hi, SHAPE_MID, SHAPE_POWER)
     d_hi = float(impedance(r_hi, solimp))
     return MjContact(solref=(-K * dmax * dmax, -B * dmax), solimp=solimp, omega_rad_s=d_hi * math.sqrt(K),

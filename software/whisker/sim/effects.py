@@ -11,6 +11,10 @@ with a one-line reason either way. The simulator builds exactly the effects mark
     heating      magnetics, and the drive would warm a coil by more than the threshold (needs magnetics)
     contact      an object within reach of the tips along the path, or the tips reach the table,
                  or fidelity.contact = "on" (MuJoCo: capsule whiskers, bodies, friction, gravity)
+    compliance   contact, and an object or the tips name a material soft enough for the time step:
+                 Hertz contact mapped onto MuJoCo's solref/solimp (whisker.sim.compliant; one module
+                 per contact model, listed in CONTACT_MODELS)  (needs contact)
+    airflow      the scene has a flow (whisker.sim.airflow)
     camera       the camera is on and frames, video or tracks are wanted (whisker.render)
     tracking     the camera is built and tracks are wanted (whisker.tracking + whisker.geometry)
     solver       static equilibrium when nothing moves, else time stepping (MuJoCo when contact)
@@ -26,7 +30,13 @@ from whisker.sim.graph import Effect, Plan
 from whisker.sim.scene import Scene, SceneError
 from whisker.sim.timeline import levels_at, path_samples
 
-ORDER = ("kinematics", "gravity", "motion", "magnetics", "heating", "contact", "camera", "tracking", "solver")
+from whisker.sim import compliant
+
+ORDER = ("kinematics", "gravity", "motion", "magnetics", "heating", "contact", "compliance", "airflow", "camera",
+         "tracking", "solver")
+#: contact models beyond the rigid one, in the order they are applied (each: NAME, effect(), apply();
+#: see whisker.sim.compliant). Adding a contact model = its module + one entry here.
+CONTACT_MODELS = (compliant,)
 
 
 def reach(design, body) -> tuple[float, float]:
@@ -196,6 +206,8 @@ def plan(scene: Scene, design) -> Plan:
     if not contact and tips_low:
         contact, why = True, "the tips reach the table top (tip height <= 0 mm on the path)"
     effects.append(Effect("contact", contact, why, needs=("kinematics", "gravity")))
+    for model in CONTACT_MODELS:
+        effects.append(model.effect(scene, design, contact, body))
     from whisker.sim.airflow import effect as airflow_effect
     effects.append(airflow_effect(scene.airflow, design, body.stiffness if body is not None else None))
     if scene.airflow.on and contact:

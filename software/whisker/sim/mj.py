@@ -36,6 +36,7 @@ import math
 import numpy as np
 
 from whisker.sim.drive import Drive
+from whisker.sim.effects import CONTACT_MODELS
 from whisker.sim.meshes import mesh_bounds, mesh_path
 from whisker.sim.result import SimulationError
 from whisker.sim.scene import SceneError
@@ -146,21 +147,26 @@ def build_mjcf(scene, design, body) -> str:
     return "\n".join(out)
 
 
-def object_friction(o, design) -> float:
-    """An object's Coulomb coefficient against the sand-coated tips: its own, else the design's."""
-    return design.mechanics.tip_friction if o.friction is None else o.friction
+def object_friction(o, design, scene=None) -> float:
+    """An object's Coulomb coefficient against the sand-coated tips: its own (the pair's), else the tip
+    cap material's (``contact.tip_material``, when it gives one), else the design's tip_friction."""
+    if o.friction is not None:
+        return o.friction
+    cap = scene.materials.get(scene.contact.tip_material) if scene is not None and scene.contact.tip_material else None
+    return cap.friction if cap is not None and cap.friction is not None else design.mechanics.tip_friction
 
 
 def _object_xml(scene, o, design) -> str:
     yaw = math.radians(o.yaw)
     q = [math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
-    fr = f'friction="{_fr(scene, object_friction(o, design))}" contype="1" conaffinity="3" priority="1"'
+    fr = f'friction="{_fr(scene, object_friction(o, design, scene))}" contype="1" conaffinity="3" priority="1"'
     if o.shape == "mesh":
-        g = f'<geom type="mesh" mesh="mesh:{o.name}" mass="{o.mass * 1e-3:.9g}" {fr}/>'
+        g = f'<geom name="obj:{o.name}:0" type="mesh" mesh="mesh:{o.name}" mass="{o.mass * 1e-3:.9g}" {fr}/>'
         z = -mesh_bounds(scene, o)[0][2] * o.size[0] * MM      # its lowest point rests on the table
     else:
-        g = "".join(f'<geom type="{sh}" size="{_f(np.asarray(sz) * MM)}" pos="{_f(np.asarray(ps) * MM)}" '
-                    f'mass="{m * 1e-3:.9g}" {fr}/>' for sh, sz, ps, m in o.geoms())
+        g = "".join(f'<geom name="obj:{o.name}:{k}" type="{sh}" size="{_f(np.asarray(sz) * MM)}" '
+                    f'pos="{_f(np.asarray(ps) * MM)}" mass="{m * 1e-3:.9g}" {fr}/>'
+                    for k, (sh, sz, ps, m) in enumerate(o.geoms()))
         z = o.half_height * MM
     joint = "" if o.fixed else "<freejoint/>"
     return (f'<body name="obj:{o.name}" pos="{o.pos[0] * MM:.9g} {o.pos[1] * MM:.9g} {z + 1e-5:.9g}" quat="{_f(q)}">'
@@ -180,6 +186,9 @@ class MjScene:
             self.model = mujoco.MjModel.from_xml_string(self.xml)
         except ValueError as err:
             raise SceneError(f"MuJoCo refused the scene: {str(err).splitlines()[0]}") from None
+        for model in CONTACT_MODELS:           # contact models beyond the rigid one (whisker.sim.effects)
+            if plan.built(model.NAME):
+                model.apply(plan.effect(model.NAME), self)
         self.data = mujoco.MjData(self.model)
         n = design.whiskers.count
         self.n = n
