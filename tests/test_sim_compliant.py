@@ -149,10 +149,15 @@ def test_explain_lists_compliance_only_when_materials_call_for_it():
                    objects=[{**a.objects[0].model_dump(), "material": None}])
     assert not plan(bare, d).built("compliance") and "no object or tip names a material" in plan(bare, d).effect("compliance").reason
     # a stiff pair at a coarse step stays rigid, and the reason names the step it would need
-    pine, _ = _attempt_scene(scene_with_overrides(s, ["scene.timestep=0.004"]), "mini pinecone")
+    # a pair stiffer than MuJoCo's rigid contact stays rigid (the step resolves nothing stiffer)
+    pine, _ = _attempt_scene(s, "mini pinecone")
     q = plan(pine, d)
     assert not q.built("compliance") and "mini pinecone (E* 2" in q.effect("compliance").reason
-    assert "needs dt <=" in q.effect("compliance").reason
+    assert "stiffer than the rigid contact" in q.effect("compliance").reason
+    # a soft pair whose ringing the step cannot follow stays rigid, and the reason names the step it needs
+    coarse = scene_with_overrides(a, ["materials.acrylic pile.youngs_modulus_Pa=5e5", "scene.timestep=0.004"])
+    q = plan(coarse, d)
+    assert not q.built("compliance") and "needs dt <=" in q.effect("compliance").reason
     # no objects: no contact, so no compliance either
     empty = a.with_(objects=[])
     assert not plan(empty, d).built("compliance")

@@ -11,10 +11,12 @@ the pair's inverse mass from the two bodies (MuJoCo's ``body_invweight0``: 1/m f
 whisker.sim.contact_law.mujoco_contact: solref/solimp following Hertz over ``contact.load_range_mN``,
 damping from the softer material's loss factor (at least the rigid contact's, which sets how
 hard friction holds: contact_law.mujoco_contact), and the torsional friction of the Hertz patch at
-``contact.nominal_load_mN`` ((2/3) mu a). The pair is built only when the time step resolves it:
-its ringing frequency omega at the top of the load range must satisfy omega * 2 dt <= 1 (MuJoCo's
-own rule for its time-constant form, timeconst >= 2 dt); a stiffer pair stays rigid, and the reason
-says the step it would need. Contacts of the rods, the table and the membrane stay rigid.
+``contact.nominal_load_mN`` ((2/3) mu a). The pair is built only when it is softer than MuJoCo's
+rigid contact (solref ``contact.solref_timeconst``, default solimp) at the top of the load range, and
+its ringing frequency omega there satisfies omega * 2 dt <= 1 (MuJoCo's own rule for its
+time-constant form, timeconst >= 2 dt). A stiffer pair stays rigid: the rigid contact is already as
+stiff as the scene's step resolves (a stiffer contact at 1 ms moved the popcorn's 4-whisker rate from
+36 % at 0.5 ms to 21 %: a step artefact, docs/sim.md), and the reason says why. Contacts of the rods, the table and the membrane stay rigid.
 
 The objects own the tip pair's parameters (priority 1 over the tips' 0, as for friction:
 whisker.sim.mj), so setting them on the object geoms changes only the tip-object contacts.
@@ -25,7 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from whisker.sim.contact_law import effective_modulus_Pa, effective_radius_m, mujoco_contact
+from whisker.sim.contact_law import effective_modulus_Pa, effective_radius_m, mujoco_contact, rigid_indentation_m
 from whisker.sim.graph import Effect
 
 NAME = "compliance"
@@ -49,6 +51,8 @@ class Pair:
     omega: float
     patch_m: float
     indentation_m: float
+    indentation_hi_m: float        # Hertz, at the top of the load range
+    rigid_hi_m: float              # MuJoCo's rigid contact, at the top of the load range
     fit_error: float
 
 
@@ -98,7 +102,8 @@ def pairs(scene, design, body, inv_mass=None) -> list[Pair]:
             m = mujoco_contact(E_star, R, A, load_range_N=(lo, hi), nominal_N=c.nominal_load_mN * 1e-3,
                                loss_factor=eta, min_damping=b_rigid)
             out.append(Pair(o.name, k, E_star, R, eta, A, m.solref, m.solimp, m.omega_rad_s, m.patch_radius_m,
-                            m.indentation_m, m.fit_error))
+                            m.indentation_m, m.indentation_hi_m, rigid_indentation_m(hi, A, c.solref_timeconst),
+                            m.fit_error))
     return out
 
 
@@ -107,8 +112,9 @@ def _pa(v: float) -> str:
 
 
 def resolvable(p: Pair, dt: float) -> bool:
-    """MuJoCo steps the pair stably: omega * 2 dt <= 1 (module doc)."""
-    return p.omega * 2.0 * dt <= 1.0
+    """The pair is softer than the rigid contact at the top of the load range (it dents deeper), and
+    MuJoCo steps it stably: omega * 2 dt <= 1 (module doc)."""
+    return p.indentation_hi_m >= p.rigid_hi_m and p.omega * 2.0 * dt <= 1.0
 
 
 def effect(scene, design, contact: bool, body) -> Effect:
@@ -134,18 +140,24 @@ def effect(scene, design, contact: bool, body) -> Effect:
                      f"{p.patch_m * 1e3:.2g} mm patch at {c.nominal_load_mN:g} mN, "
                      f"Hertz within {100 * max(q.fit_error for q in pp):.0f} %)")
     rigid = []
+    hi = c.load_range_mN[1]
     for name, pp in stiff.items():
         if name in soft:
             continue
-        w = max(q.omega for q in pp)
-        rigid.append(f"{name} (E* {_pa(pp[0].E_star_Pa)} needs dt <= {1e3 / (2 * w):.2g} ms)")
+        p = min(pp, key=lambda q: q.indentation_hi_m)
+        if p.indentation_hi_m < p.rigid_hi_m:
+            rigid.append(f"{name} (E* {_pa(p.E_star_Pa)}: {p.indentation_hi_m * 1e3:.2g} mm at {hi:g} mN, stiffer than "
+                         f"the rigid contact's {p.rigid_hi_m * 1e3:.2g} mm)")
+        else:
+            w = max(q.omega for q in pp)
+            rigid.append(f"{name} (E* {_pa(p.E_star_Pa)} needs dt <= {1e3 / (2 * w):.2g} ms)")
     cap = f"tips: {c.tip_material}; " if c.tip_material else "tips rigid; "
     if not soft:
-        return Effect(NAME, False, f"{cap}every pair too stiff for dt = {dt * 1e3:g} ms, kept rigid: "
+        return Effect(NAME, False, f"{cap}every pair kept rigid at dt = {dt * 1e3:g} ms: "
                                    + ", ".join(rigid), needs=("contact",))
     why = f"{cap}Hertz contact for " + ", ".join(notes)
     if rigid:
-        why += "; rigid at this step: " + ", ".join(rigid)
+        why += "; rigid: " + ", ".join(rigid)
     return Effect(NAME, True, why, needs=("contact",),
                   detail={"objects": sorted(soft)})
 

@@ -35,6 +35,8 @@ import numpy as np
 
 #: MuJoCo's impedance bounds (mjMINIMP, mjMAXIMP)
 D_MIN, D_MAX = 0.0001, 0.9999
+#: MuJoCo's default solimp, which the rigid contacts use
+RIGID_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
 #: impedance at first touch (MuJoCo's default solimp starts at 0.9: the friction of a just-touching
 #: contact is as hard as in the rigid model), the sigmoid's midpoint and power
 SHAPE_DMIN, SHAPE_MID, SHAPE_POWER = 0.9, 0.05, 3.0
@@ -135,6 +137,7 @@ class MjContact:
     stiffness_N_m: float                 # Hertz tangent stiffness at the nominal load
     patch_radius_m: float                # Hertz contact radius at the nominal load
     indentation_m: float                 # Hertz indentation at the nominal load
+    indentation_hi_m: float              # Hertz indentation at the top of the load range
     fit_error: float                     # worst relative force error of the fit over the load range
 
 
@@ -167,4 +170,22 @@ def mujoco_contact(E_star: float, R: float, diag_approx: float, *, load_range_N=
     return MjContact(solref=(-K * dmax * dmax, -B * dmax), solimp=solimp, omega_rad_s=d_hi * math.sqrt(K),
                      stiffness_N_m=hertz_stiffness_N_m(nominal_N, E_star, R),
                      patch_radius_m=contact_radius_m(nominal_N, E_star, R),
-                     indentation_m=float(hertz_indentation_m(nominal_N, E_star, R)), fit_error=err)
+                     indentation_m=float(hertz_indentation_m(nominal_N, E_star, R)), indentation_hi_m=r_hi,
+                     fit_error=err)
+
+
+def rigid_indentation_m(F_N: float, diag_approx: float, timeconst_s: float, dampratio: float = 1.0,
+                        solimp=RIGID_SOLIMP) -> float:
+    """Penetration at which MuJoCo's default ("rigid") contact, ``solref = (timeconst, dampratio)`` and
+    MuJoCo's default solimp, carries F at rest: K d^2 / (1 - d) r / A = F with K = 1 / (dmax^2
+    timeconst^2 dampratio^2) (bisection; the force rises with r)."""
+    K = 1.0 / (solimp[1] ** 2 * timeconst_s ** 2 * dampratio ** 2)
+    lo, hi = 0.0, 1.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        d = float(impedance(mid, solimp))
+        if K * d * d / (1.0 - d) * mid / diag_approx < F_N:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)

@@ -161,10 +161,10 @@ def _object_xml(scene, o, design) -> str:
     q = [math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
     fr = f'friction="{_fr(scene, object_friction(o, design, scene))}" contype="1" conaffinity="3" priority="1"'
     if o.shape == "mesh":
-        g = f'<geom name="obj:{o.name}:0" type="mesh" mesh="mesh:{o.name}" mass="{o.mass * 1e-3:.9g}" {fr}/>'
+        g = f'<geom type="mesh" name="obj:{o.name}:0" mesh="mesh:{o.name}" mass="{o.mass * 1e-3:.9g}" {fr}/>'
         z = -mesh_bounds(scene, o)[0][2] * o.size[0] * MM      # its lowest point rests on the table
     else:
-        g = "".join(f'<geom name="obj:{o.name}:{k}" type="{sh}" size="{_f(np.asarray(sz) * MM)}" '
+        g = "".join(f'<geom type="{sh}" name="obj:{o.name}:{k}" size="{_f(np.asarray(sz) * MM)}" '
                     f'pos="{_f(np.asarray(ps) * MM)}" mass="{m * 1e-3:.9g}" {fr}/>'
                     for k, (sh, sz, ps, m) in enumerate(o.geoms()))
         z = o.half_height * MM

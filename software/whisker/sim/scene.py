@@ -399,6 +399,22 @@ def scene_from_dict(data: dict[str, Any]) -> Scene:
         raise SceneError(one_line_errors(err)) from None
 
 
+def _shared_file(path: Path, data: dict, key: str, section: str, kind: type, what: str):
+    """The `section` of the TOML file a scene's top-level `key` names (relative to the scene), or None."""
+    src = data.pop(key, None)
+    if src is None:
+        return None
+    if not isinstance(src, str) or not src:
+        raise SceneError(f"{key}: expected a TOML file name (got {src!r})")
+    f = path.resolve().parent / src
+    if not f.is_file():
+        raise SceneError(f"{key}: no such file {f}")
+    shared = read_toml(f, f"{section} file", SceneError).get(section, kind())
+    if not isinstance(shared, kind) or not shared:
+        raise SceneError(f"{key}: {f.name} has no {what}")
+    return shared
+
+
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene TOML file. Raises :class:`SceneError` (one line) when it is bad.
 
@@ -410,27 +426,11 @@ def load_scene(path: str | Path) -> Scene:
     path = Path(path)
     data = read_toml(path, "scene", SceneError)
     data.setdefault("base_dir", str(path.resolve().parent))
-    src = data.pop("objects_from", None)
-    if src is not None:
-        if not isinstance(src, str) or not src:
-            raise SceneError(f"objects_from: expected a TOML file name (got {src!r})")
-        f = path.resolve().parent / src
-        if not f.is_file():
-            raise SceneError(f"objects_from: no such file {f}")
-        shared = read_toml(f, "objects file", SceneError).get("objects", [])
-        if not isinstance(shared, list) or not shared:
-            raise SceneError(f"objects_from: {f.name} has no [[objects]]")
+    shared = _shared_file(path, data, "objects_from", "objects", list, "[[objects]]")
+    if shared is not None:
         data["objects"] = [*shared, *data.get("objects", [])]
-    src = data.pop("materials_from", None)
-    if src is not None:
-        if not isinstance(src, str) or not src:
-            raise SceneError(f"materials_from: expected a TOML file name (got {src!r})")
-        f = path.resolve().parent / src
-        if not f.is_file():
-            raise SceneError(f"materials_from: no such file {f}")
-        shared = read_toml(f, "materials file", SceneError).get("materials", {})
-        if not isinstance(shared, dict) or not shared:
-            raise SceneError(f"materials_from: {f.name} has no [materials.NAME] tables")
+    shared = _shared_file(path, data, "materials_from", "materials", dict, "[materials.NAME] tables")
+    if shared is not None:
         data["materials"] = {**shared, **data.get("materials", {})}
     return scene_from_dict(data)
 
