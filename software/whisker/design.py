@@ -188,6 +188,8 @@ class Mold(_Section):
     pour_diameter: AutoMm = Field(description="mm; auto: the largest up to max_pour_diameter inside the ring")
     max_pour_diameter: float = Field(gt=0, le=100, description="mm, the pour opening a cup's spout needs")
     vent_diameter: float = Field(gt=0, le=20, description="mm")
+    draft_deg: float = Field(ge=0, le=15, description="deg, draft of the cavity's side walls (release upwards)")
+    rod_slack: float = Field(ge=0, le=10, description="mm of axial play above each rod's tip in the ring's socket")
 
 
 class Ring(_Section):
