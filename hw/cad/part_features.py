@@ -60,6 +60,8 @@ def all_printed(d: Design) -> dict[str, tuple[Features, float, list[str]]]:
 
     out = {name: (fn(d), d.print.min_wall, []) for name, fn in FEATURES.items()}
     out["adapter"] = ({**adapter.adapter_tools(d), **adapter.edges(d)}, d.print.min_wall, adapter.separate(d))
+    out["flange_plate"] = ({**adapter.plate_tools(d), **adapter.plate_edges(d)}, d.print.min_wall,
+                           adapter.plate_separate(d))
     out["cover"] = ({**cover.cover_tools(d), **cover.edges(d)}, d.print.min_wall, [])
     out["winding_jig"] = ({**winding_jig.jig_tools(d), **winding_jig.edges(d)}, d.print.min_wall, [])
     out["bobbin"] = ({**bobbin.bobbin_tools(d), **bobbin.edges(d)}, d.bobbin.min_wall, [])

@@ -50,7 +50,7 @@ COLUMNS = ("item", "category", "description", "quantity", "unit", "specification
            "notes")
 
 #: Printed parts and the reference part the Ecoflex volume comes from (names of whisker.cad.parts).
-PRINTED_PARTS = ("mount", "mold_base", "mold_lid", "whisker_ring", "adapter", "cover", "winding_jig")
+PRINTED_PARTS = ("mount", "mold_base", "mold_lid", "whisker_ring", "adapter", "flange_plate", "cover", "winding_jig")
 #: Printed on a resin printer (not PLA): one per whisker.
 RESIN_PARTS = ("bobbin",)
 MEMBRANE_PART = "membrane"
