@@ -126,3 +126,145 @@ def test_replay_gives_the_sim_paths_decisions_and_drives_the_bridges_forward(rec
     assert {"levels", "applied", "states", "reason", "force_mN", "direction_deg"} <= set(lines[0])
     assert not list(tmp_path.glob(".grasp.jsonl.*"))     # finalised: no temporary file left
     assert any("lift" in p for p in prompts) and any("lower" in p for p in prompts)
+
+
+def _copy(rec, tmp_path):
+    dst = tmp_path / "frames"
+    shutil.copytree(rec["folder"], dst)
+    return dst
+
+
+def _frame_of(rec, phase, k=0):
+    """File index of the k-th frame the sim controller answered with `phase`."""
+    idx = [i for i, c in enumerate(rec["commands"]) if c[1] == phase]
+    return REST + idx[k]
+
+
+def _assert_safe_abort(res, backend, log, words):
+    assert res.phase == "abort" and res.exit_code != 0, (res.phase, res.reason)
+    assert words in res.reason, res.reason
+    assert np.all(_pins(backend) == 0)                   # every H-bridge input low
+    last = json.loads(log.read_text().splitlines()[-1])
+    assert last["phase"] == "abort" and words in last["reason"]
+
+
+def test_lost_marker_in_the_lift_turns_every_coil_off(recording, tmp_path):
+    import cv2
+
+    from whisker.tracking import Tracker
+
+    folder = _copy(recording, tmp_path)
+    files = sorted(folder.glob("*.png"))
+    trk = Tracker(recording["design"], "roi")
+    trk.calibrate([cv2.imread(str(f)) for f in files[:REST]])
+    k = _frame_of(recording, "lift", 1)
+    for f in files[k:k + 2]:                             # marker 2 covered for two frames
+        img = cv2.imread(str(f))
+        pos = trk.track(img).positions_px[2]
+        bg = [int(v) for v in np.median(img.reshape(-1, 3), axis=0)]
+        cv2.circle(img, (int(round(pos[0])), int(round(pos[1]))), int(3 * trk.marker_r) + 2, bg, -1)
+        cv2.imwrite(str(f), img)
+    log = tmp_path / "lost.jsonl"
+    res, backend, _ = _hardware(recording, folder, log=log)
+    _assert_safe_abort(res, backend, log, "whisker 2 lost")
+    assert res.commands[-1][0] == recording["commands"][k - REST + 1][0]     # on the second covered frame
+
+
+def test_dropped_frames_turn_every_coil_off(recording, tmp_path):
+    folder = _copy(recording, tmp_path)
+    k = _frame_of(recording, "lift", 1)
+    for f in sorted(folder.glob("*.png"))[k:k + 2]:      # two frames never arrive (times.csv keeps the others')
+        f.unlink()
+    log = tmp_path / "dropped.jsonl"
+    res, backend, _ = _hardware(recording, folder, log=log)
+    _assert_safe_abort(res, backend, log, "dropped frames")
+
+
+def test_contact_before_actuation_never_drives_a_coil(recording, tmp_path):
+    folder = _copy(recording, tmp_path)
+    files = sorted(folder.glob("*.png"))
+    late = _frame_of(recording, "lift", 0)               # whiskers closed on the ball
+    first = _frame_of(recording, "descend", 3)           # after the rest statistics are learned
+    for j, f in enumerate(files[first:_frame_of(recording, "close", 0)]):
+        shutil.copyfile(files[late], f)                  # displaced whiskers while the coils are still off
+    driven = []
+    log = tmp_path / "early.jsonl"
+    res, backend, _ = _hardware(recording, folder, log=log,
+                                on_frame=lambda rig, cmd, rec: driven.append(_pins(rig.actuator.backend).max()))
+    _assert_safe_abort(res, backend, log, "contact before actuation")
+    assert max(driven) == 0.0                            # no coil was ever energised
+
+
+def test_thermal_cut_turns_every_coil_off(recording, tmp_path):
+    log = tmp_path / "hot.jsonl"
+    res, backend, _ = _hardware(recording, log=log, guard_C=300.0)     # the actuator's guard: far too hot
+    _assert_safe_abort(res, backend, log, "thermal guard cut coil")
+    levels = [c[2] for c in res.commands]
+    assert np.all(levels[-1] > 0) and all(np.all(lv == 0) for lv in levels[:-1])   # at the first request
+
+
+def test_a_stalled_camera_turns_the_coils_off_without_waiting_for_a_frame(recording, tmp_path):
+    from whisker.camera import FolderSource
+
+    k = _frame_of(recording, "close", 1)
+    during = []
+
+    class Stalling(FolderSource):
+        def __iter__(self):
+            for f in super().__iter__():
+                if f.index == k:
+                    before = _pins(self.backend).max()
+                    time.sleep(1.0)                      # the camera hangs for 1 s (watchdog 0.2 s)
+                    during.append((before, _pins(self.backend).max()))
+                yield f
+
+    src = Stalling(recording["folder"], fps=FPS)
+    log = tmp_path / "stall.jsonl"
+
+    def grab_backend(rig, cmd, rec):
+        src.backend = rig.actuator.backend
+    res, backend, _ = _hardware(recording, log=log, watchdog_s=0.2, source=src, on_frame=grab_backend)
+    assert during and during[0][0] > 0 and during[0][1] == 0     # driven before the stall, off during it
+    _assert_safe_abort(res, backend, log, "no camera frame")
+
+
+def test_a_camera_that_ends_early_turns_the_coils_off(recording, tmp_path):
+    folder = _copy(recording, tmp_path)
+    for f in sorted(folder.glob("*.png"))[_frame_of(recording, "lift", 0):]:
+        f.unlink()
+    log = tmp_path / "short.jsonl"
+    res, backend, _ = _hardware(recording, folder, log=log)
+    _assert_safe_abort(res, backend, log, "camera stopped")
+
+
+def test_cli_replays_a_recording_on_mock_pins(recording, tmp_path):
+    from click.testing import CliRunner
+
+    from whisker.cli import main
+
+    log = tmp_path / "cli.jsonl"
+    r = CliRunner().invoke(main, ["closedloop", "--backend", "mock", "--source", str(recording["folder"]), "--log",
+                                  str(log), "--descend-mm", "15", "--descend-s", "0.3", "--lift-mm", "30",
+                                  "--lift-s", "0.5", "--hold-s", "0.4", "-q"])
+    assert r.exit_code == 0, r.output
+    lines = [json.loads(s) for s in log.read_text().splitlines()]
+    assert lines[-1]["phase"] == "done" and any(x["phase"] == "lift" for x in lines)
+    folder = _copy(recording, tmp_path)
+    for f in sorted(folder.glob("*.png"))[_frame_of(recording, "lift", 1):][:3]:
+        f.unlink()
+    r = CliRunner().invoke(main, ["closedloop", "--backend", "mock", "--source", str(folder), "--log",
+                                  str(tmp_path / "cli2.jsonl"), "--descend-s", "0.3", "-q"])
+    assert r.exit_code == 1 and "ABORT" in r.output and "dropped frames" in r.output
+
+
+def test_cli_refuses_options_of_the_other_backend(tmp_path):
+    from click.testing import CliRunner
+
+    from whisker.cli import main
+
+    r = CliRunner().invoke(main, ["closedloop", "--source", "picamera"])
+    assert r.exit_code == 2 and "is for --backend mock or gpio" in r.output
+    r = CliRunner().invoke(main, ["closedloop", "--backend", "mock", "--attempts", "3", "--source", str(tmp_path)])
+    assert r.exit_code == 2 and "--attempts is for --backend sim" in r.output
+    r = CliRunner().invoke(main, ["closedloop", "--backend", "mock"])
+    assert r.exit_code == 2 and "needs --source" in r.output
