@@ -70,17 +70,18 @@ class ForceModel:
 
 
 def coil_torque_fn(design) -> Callable:
-    """f(levels, theta_r) -> N*mm: retracting coil torque per whisker, mean current of the PWM level
-    (level x full-scale volts through whisker.guard.coil_current_A at 20 C) x
-    whisker.coil.torque_per_ampere_Nmm at the radial tilt."""
+    """f(levels, theta_r, temperature_C=20) -> N*mm: retracting coil torque per whisker: the mean
+    current of the PWM level (level x full-scale volts through whisker.guard.coil_current_A at the
+    coil's temperature, C: a warm coil draws less) x whisker.coil.torque_per_ampere_Nmm at the
+    radial tilt."""
     from whisker.coil import torque_per_ampere_Nmm
     from whisker.guard import coil_current_A, full_scale_voltage
 
     v_fs = full_scale_voltage(design)
 
-    def torque(levels, theta_r):
+    def torque(levels, theta_r, temperature_C=20.0):
         lv = np.asarray(levels, dtype=float)
-        i = np.sign(lv) * np.asarray(coil_current_A(design, np.abs(lv) * v_fs), dtype=float)
+        i = np.sign(lv) * np.asarray(coil_current_A(design, np.abs(lv) * v_fs, temperature_C), dtype=float)
         return i * np.asarray(torque_per_ampere_Nmm(design, np.asarray(theta_r, dtype=float)), dtype=float)
     return torque
 
@@ -97,12 +98,13 @@ class TipForce(NamedTuple):
     valid: np.ndarray
 
 
-def tip_force(model: ForceModel, dx_px, dy_px, levels=None) -> TipForce:
+def tip_force(model: ForceModel, dx_px, dy_px, levels=None, temperature_C=20.0) -> TipForce:
     """Per-whisker tip force (mN) and direction from marker displacements (image axes, px).
 
     dx_px, dy_px: (n,) displacement of each marker from its rest position, px (NaN = lost marker ->
     NaN force, valid False). levels: (n,) signed PWM levels driving the coils now (None or 0: coils
-    off). Formula and assumptions: module docstring. Zero displacement and no coil give exactly zero
+    off). temperature_C: the coils' temperatures, C (scalar or (n,); e.g. the thermal guard's
+    estimate), for their current. Formula and assumptions: module docstring. Zero displacement and no coil give exactly zero
     force; the direction of a pure spring force does not depend on the displacement's size.
     """
     dx = np.asarray(dx_px, dtype=float)
@@ -131,7 +133,7 @@ def tip_force(model: ForceModel, dx_px, dy_px, levels=None) -> TipForce:
         # radial tilt: the tip's move toward the centre (retraction +)
         with np.errstate(invalid="ignore"):
             th_r = np.arcsin(np.clip(a * (sx * rad[..., 0] + sy * rad[..., 1]), -1.0, 1.0))
-        tc = np.where(lv != 0, model.coil_torque(lv, np.where(valid, th_r, 0.0)), 0.0)
+        tc = np.where(lv != 0, model.coil_torque(lv, np.where(valid, th_r, 0.0), temperature_C), 0.0)
         tx = tx + tc * rad[..., 0]
         ty = ty + tc * rad[..., 1]
     lever = model.tip_mm * np.sqrt(np.maximum(1.0 - s * s, 1e-12))     # l_u cos(theta), mm
@@ -140,5 +142,6 @@ def tip_force(model: ForceModel, dx_px, dy_px, levels=None) -> TipForce:
     nan = ~valid
     fx, fy = np.where(nan, np.nan, fx), np.where(nan, np.nan, fy)
     f = np.hypot(fx, fy)
+    fx, fy = fx + 0.0, fy + 0.0                  # -0.0 -> 0.0: no force has direction 0, not 180 deg
     direction = np.where(nan, np.nan, np.degrees(np.arctan2(np.where(nan, 0.0, fy), np.where(nan, 0.0, fx))))
     return TipForce(fx, fy, f, direction, np.where(nan, np.nan, np.degrees(theta)), valid)

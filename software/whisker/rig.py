@@ -255,7 +255,8 @@ class HardwareRig:
                     self._off()
                 else:
                     self.arm.command(cmd.arm_mm_s, phase)
-                force = tip_force(self.force_model, tr.dx_px, tr.dy_px, levels=applied)
+                force = tip_force(self.force_model, tr.dx_px, tr.dy_px, levels=applied,
+                                  temperature_C=g.temperatures if g is not None else 20.0)
                 rec = {"frame": int(f.index), "t": round(float(f.time_s), 4), "phase": phase, "reason": reason,
                        "levels": [round(float(x), 4) for x in cmd.levels],
                        "applied": [round(float(x), 4) for x in applied],
