@@ -268,3 +268,30 @@ def test_cli_refuses_options_of_the_other_backend(tmp_path):
     assert r.exit_code == 2 and "--attempts is for --backend sim" in r.output
     r = CliRunner().invoke(main, ["closedloop", "--backend", "mock"])
     assert r.exit_code == 2 and "needs --source" in r.output
+
+
+def test_a_lossless_video_of_the_recording_replays_to_the_same_decisions(recording, tmp_path):
+    import cv2
+
+    from whisker.camera import VideoSource
+
+    files = sorted(recording["folder"].glob("*.png"))
+    times = [float(r["time_s"]) for r in csv.DictReader(open(recording["folder"] / "times.csv"))]
+    period = (times[-1] - times[0]) / (len(times) - 1)
+    path = tmp_path / "grasp.mkv"
+    first = cv2.imread(str(files[0]))
+    w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), 1.0 / period, (first.shape[1], first.shape[0]))
+    if not w.isOpened():
+        pytest.skip("this OpenCV build has no FFV1 (lossless) video writer")
+    for f in files:
+        w.write(cv2.imread(str(f)))
+    w.release()
+    src = VideoSource(str(path))
+    res, backend, _ = _hardware(recording, source=src)
+    src.close()
+    sim = recording["commands"]        # the container stores the frame rate as a rational: times agree to 1 ms
+    assert res.phase == "done" and len(res.commands) == len(sim)
+    for (t_s, ph_s, lv_s, v_s), (t_h, ph_h, lv_h, v_h) in zip(sim, res.commands):
+        assert t_h == pytest.approx(t_s, abs=1e-3) and ph_h == ph_s and v_h == pytest.approx(v_s)
+        assert np.allclose(lv_h, lv_s, rtol=0, atol=1e-12)
+    assert np.all(_pins(backend) == 0)
