@@ -295,3 +295,23 @@ def test_a_lossless_video_of_the_recording_replays_to_the_same_decisions(recordi
         assert t_h == pytest.approx(t_s, abs=1e-3) and ph_h == ph_s and v_h == pytest.approx(v_s)
         assert np.allclose(lv_h, lv_s, rtol=0, atol=1e-12)
     assert np.all(_pins(backend) == 0)
+
+
+def test_folder_times_csv_is_checked(tmp_path):
+    import cv2
+
+    from whisker.camera import FolderSource, SourceError
+
+    for i in range(3):
+        cv2.imwrite(str(tmp_path / f"f{i}.png"), np.zeros((8, 8, 3), np.uint8))
+    (tmp_path / "times.csv").write_text("file,time_s\nf0.png,0\nf1.png,0.1\nf2.png,0.5\n")
+    assert [f.time_s for f in FolderSource(tmp_path)] == [0.0, 0.1, 0.5]       # the gap is kept
+    (tmp_path / "times.csv").write_text("file,time_s\nf0.png,0\nf1.png,0.1\n")
+    with pytest.raises(SourceError, match="no time for f2.png"):
+        FolderSource(tmp_path)
+    (tmp_path / "times.csv").write_text("file,time_s\nf0.png,0\nf1.png,0.1\nf2.png,0.05\n")
+    with pytest.raises(SourceError, match="increase"):
+        FolderSource(tmp_path)
+    (tmp_path / "times.csv").write_text("name,t\nf0.png,0\n")
+    with pytest.raises(SourceError, match="columns file,time_s"):
+        FolderSource(tmp_path)

@@ -151,7 +151,8 @@ class FolderSource(FrameSource):
 class PicameraSource(FrameSource):
     """Raspberry Pi camera via Picamera2 (optional dependency)."""
 
-    def __init__(self, width: int = 640, height: int = 480):
+    def __init__(self, width: int = 640, height: int = 480, fps: float | None = None):
+        """fps: ask the sensor for this frame rate (Picamera2's FrameRate control), or its default."""
         try:
             from picamera2 import Picamera2
         except ImportError:
@@ -160,7 +161,11 @@ class PicameraSource(FrameSource):
         self.name = "picamera"
         try:
             self.cam = Picamera2()
-            self.cam.configure(self.cam.create_video_configuration(main={"size": (width, height), "format": "RGB888"}))
+            controls = {"FrameRate": float(fps)} if fps else {}
+            self.cam.configure(self.cam.create_video_configuration(main={"size": (width, height), "format": "RGB888"},
+                                                                   controls=controls))
+            if fps:
+                self.fps = float(fps)
             self.cam.start()
         except Exception as err:
             raise SourceError(f"cannot start the Raspberry Pi camera: {err}") from None

@@ -178,7 +178,10 @@ def run_hardware(backend, fps, fps_given, early_contact, quiet, *, design_file, 
         active = list(map(int, configuration(n, which, start).nonzero()[0]))
         tracker = Tracker(design, track_method, calibration=calibration, mask=mask)
         p = Path(source)
-        src = FolderSource(p, fps=fps) if p.is_dir() else open_source(source, design)
+        if source.strip() == "picamera":
+            src = open_source("picamera", design, fps=fps)       # the controller's frame period is the camera's
+        else:
+            src = FolderSource(p, fps=fps) if p.is_dir() else open_source(source, design)
         live = not isinstance(src, (FolderSource, VideoSource)) or getattr(src, "live", False)
         if isinstance(src, VideoSource) and not src.live and not fps_given:
             fps = src.fps
