@@ -88,8 +88,10 @@ def _hardware(rec, folder=None, *, log=None, guard_C=None, watchdog_s=30.0, on_f
     src = source if source is not None else FolderSource(folder or rec["folder"], fps=FPS)
     rig = HardwareRig(design, src, Tracker(design, "roi"), act, ctl, arm=HandHeldArm(echo=prompts.append),
                       log=log, rest_frames=REST, watchdog_s=watchdog_s, on_frame=on_frame)
-    res = rig.run()
-    act.close()
+    try:
+        res = rig.run()
+    finally:
+        act.close()
     return res, backend, prompts
 
 
@@ -315,3 +317,16 @@ def test_folder_times_csv_is_checked(tmp_path):
     (tmp_path / "times.csv").write_text("name,t\nf0.png,0\n")
     with pytest.raises(SourceError, match="columns file,time_s"):
         FolderSource(tmp_path)
+
+
+def test_ctrl_c_turns_the_coils_off_and_finalises_the_log(recording, tmp_path):
+    def interrupt(rig, cmd, rec):
+        if rec["phase"] == "lift":
+            raise KeyboardInterrupt
+    log = tmp_path / "int.jsonl"
+    with pytest.raises(KeyboardInterrupt):
+        _hardware(recording, log=log, on_frame=interrupt)
+    lines = [json.loads(s) for s in log.read_text().splitlines()]
+    assert lines[-2]["phase"] == "lift" and lines[-1] == {"frame": None, "phase": "abort",
+                                                           "reason": "interrupted (Ctrl-C)"}
+    assert any("whiskers hold" in x["reason"] for x in lines)      # the frame's event is its reason

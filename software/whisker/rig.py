@@ -234,9 +234,11 @@ class HardwareRig:
                 dog.kick()
                 t0 = time.perf_counter()
                 tr = self.tracker.track(f.image)
+                seen = len(ctl.log.events)
                 cmd = ctl.step(f.time_s, tr.dx_px, tr.dy_px, tr.valid)
                 ms = (time.perf_counter() - t0) * 1e3
-                reason = cmd.reason
+                # this frame's events (phase changes, re-grips) say why, e.g. "8 whiskers hold"
+                reason = "; ".join(e[2] for e in ctl.log.events[seen:] if e[2]) or cmd.reason
                 phase = cmd.phase
                 applied = self.actuator.apply(cmd.levels, cmd.phase)
                 cut = (np.asarray(cmd.levels) != 0) & (applied == 0)
@@ -294,6 +296,7 @@ class HardwareRig:
             if isinstance(err, Exception):
                 res.reason = f"error: {str(err).splitlines()[0] if str(err) else type(err).__name__}"
                 return res
+            res.reason = "interrupted (Ctrl-C)" if isinstance(err, KeyboardInterrupt) else f"stopped ({type(err).__name__})"
             raise
         finally:
             if dog is not None:
