@@ -74,7 +74,7 @@ def recording(tmp_path_factory):
             "events": list(ctl.log.events), "lifted": rig.lift_mm()}
 
 
-def _hardware(rec, folder=None, *, log=None, guard_C=None, watchdog_s=30.0, on_frame=None, source=None):
+def _hardware(rec, folder=None, *, log=None, guard_C=None, watchdog_s=30.0, on_frame=None, source=None, arm=None):
     from whisker.actuation import Actuator, mock_backend
     from whisker.camera import FolderSource
     from whisker.rig import HandHeldArm, HardwareRig
@@ -86,7 +86,7 @@ def _hardware(rec, folder=None, *, log=None, guard_C=None, watchdog_s=30.0, on_f
     ctl = GraspController(8, range(8), rec["params"], rec["expected"], guard=ThermalGuard(design, clock=lambda: 0.0))
     prompts = []
     src = source if source is not None else FolderSource(folder or rec["folder"], fps=FPS)
-    rig = HardwareRig(design, src, Tracker(design, "roi"), act, ctl, arm=HandHeldArm(echo=prompts.append),
+    rig = HardwareRig(design, src, Tracker(design, "roi"), act, ctl, arm=arm or HandHeldArm(echo=prompts.append),
                       log=log, rest_frames=REST, watchdog_s=watchdog_s, on_frame=on_frame)
     try:
         res = rig.run()
@@ -330,3 +330,30 @@ def test_ctrl_c_turns_the_coils_off_and_finalises_the_log(recording, tmp_path):
     assert lines[-2]["phase"] == "lift" and lines[-1] == {"frame": None, "phase": "abort",
                                                            "reason": "interrupted (Ctrl-C)"}
     assert any("whiskers hold" in x["reason"] for x in lines)      # the frame's event is its reason
+
+
+class RecordingArm:
+    """An `Arm` as a robot driver would implement it: it records what it was told."""
+
+    def __init__(self):
+        self.velocities, self.stops = [], 0
+
+    def command(self, velocity_mm_s, phase):
+        self.velocities.append((phase, velocity_mm_s))
+
+    def stop(self):
+        self.stops += 1
+
+
+def test_a_robot_arm_gets_the_controllers_velocities_and_a_stop(recording, tmp_path):
+    arm = RecordingArm()
+    res, _, _ = _hardware(recording, arm=arm)
+    sim = [(c[1], c[3]) for c in recording["commands"]]
+    assert res.phase == "done" and arm.velocities == sim
+    assert any(v > 0 for ph, v in arm.velocities if ph == "lift") and any(v < 0 for ph, v in arm.velocities)
+    folder = _copy(recording, tmp_path)
+    for f in sorted(folder.glob("*.png"))[_frame_of(recording, "lift", 1):][:3]:
+        f.unlink()
+    arm = RecordingArm()
+    res, _, _ = _hardware(recording, folder, arm=arm)
+    assert res.phase == "abort" and arm.stops >= 1 and arm.velocities[-1][0] == "lift"   # stopped, not told to move
