@@ -76,6 +76,8 @@ def test_lost_marker_gives_nan_and_invalid_and_inf_is_refused():
     dx[2] = np.inf
     with pytest.raises(ValueError, match="infinite"):
         tip_force(MODEL, dx, np.zeros(N))
+    with pytest.raises(ValueError, match="finite"):
+        tip_force(MODEL, np.zeros(N), np.zeros(N), np.full(N, np.nan))
 
 
 def test_a_coil_pulling_a_held_whisker_means_the_object_pushes_it_outward():

@@ -129,6 +129,8 @@ def tip_force(model: ForceModel, dx_px, dy_px, levels=None, temperature_C=20.0) 
     ty = -model.stiffness_Nmm_per_rad * per_px * sy
     if model.coil_torque is not None and levels is not None:
         lv = np.broadcast_to(np.asarray(levels, dtype=float), dx.shape)
+        if not (np.all(np.isfinite(lv)) and np.all(np.isfinite(temperature_C))):
+            raise ValueError("coil levels and temperatures must be finite numbers")
         rad = np.asarray(model.radial, dtype=float).reshape(dx.shape + (2,))
         # radial tilt: the tip's move toward the centre (retraction +)
         with np.errstate(invalid="ignore"):
