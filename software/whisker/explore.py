@@ -54,7 +54,7 @@ class JoblibEngine:
 class DaskEngine:
     """A dask.distributed Client: on a LocalCluster it starts (``workers``) or at ``address``."""
 
-    def __init__(self, workers: int | None = None, address: str | None = None, connect_timeout_s: float = 10.0):
+    def __init__(self, workers: int | None = None, address: str | None = None, connect_timeout_s: float = 5.0):
         import logging
 
         from dask.distributed import Client, LocalCluster
