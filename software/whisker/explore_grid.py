@@ -72,9 +72,9 @@ def parse_values(text: str, what: str) -> tuple:
         a, b, s = (_number(p, what) for p in parts)
         if s == 0:
             raise ExploreError(f"--vary {what}={text}: the step is 0")
-        if (b - a) / s < 0:
+        if (b - a) / s < -1e-6:
             raise ExploreError(f"--vary {what}={text}: empty range (stop is not reached from start by step)")
-        n = int(math.floor((b - a) / s + 1e-9)) + 1
+        n = int(math.floor((b - a) / s + 1e-6)) + 1     # typed decimals: 0.1 steps land on their stop
         if n > MAX_POINTS:
             raise ExploreError(f"--vary {what}={text}: {n} values, more than {MAX_POINTS}")
         if all(isinstance(x, int) for x in (a, b, s)):
