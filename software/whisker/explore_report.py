@@ -60,13 +60,19 @@ def results_csv(rows: list[dict], varied: list[str]) -> str:
 
 
 def pareto(rows: list[dict], x: str) -> list[dict]:
-    """The rows no other row dominates (higher success, lower ``x``), by ``x``; ties keep the first."""
+    """The rows no other row dominates (higher success, lower ``x``), by ``x``; ties keep the first.
+    Values are compared as the table prints them (6 significant digits): designs whose cameras differ
+    by rounding alone are equal."""
     ok = [r for r in rows if r["status"] == "ok" and SUCCESS in r and math.isfinite(float(r[x]))]
+
+    def v(r):
+        return float(f"{r[SUCCESS]:.6g}"), float(f"{r[x]:.6g}")
+
     front = []
     for r in ok:
-        dominated = any(o is not r and o[SUCCESS] >= r[SUCCESS] and o[x] <= r[x]
-                        and (o[SUCCESS] > r[SUCCESS] or o[x] < r[x]) for o in ok)
-        twin = any(f[SUCCESS] == r[SUCCESS] and f[x] == r[x] for f in front)
+        (sr, xr) = v(r)
+        dominated = any(so >= sr and xo <= xr and (so > sr or xo < xr) for so, xo in map(v, ok))
+        twin = any(v(f) == (sr, xr) for f in front)
         if not dominated and not twin:
             front.append(r)
     return sorted(front, key=lambda r: r[x])
@@ -76,7 +82,7 @@ def label(r: dict, varied: list[str]) -> str:
     return ", ".join(f"{k.split('.')[-1]}={_cell(r[k])}" for k in varied) or f"point {r['point']}"
 
 
-def plot_front(rows: list[dict], front: list[dict], x: str, xlabel: str, varied: list[str]) -> bytes:
+def plot_front(rows: list[dict], front: list[dict], x: str, xlabel: str, varied: list[str], base_digest: str = "") -> bytes:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -88,10 +94,15 @@ def plot_front(rows: list[dict], front: list[dict], x: str, xlabel: str, varied:
         ax.errorbar([r[x] for r in ok], [r[SUCCESS] for r in ok],
                     yerr=[[r[SUCCESS] - r["grasp_all_lo"] for r in ok], [r["grasp_all_hi"] - r[SUCCESS] for r in ok]],
                     fmt="o", color="0.6", ms=4, lw=0.8, capsize=2, label="designs (Wilson 95 %)")
-    if front:
-        ax.plot([r[x] for r in front], [r[SUCCESS] for r in front], "o-", color="tab:red", label="Pareto front")
+    if front:      # a staircase: each front design is the best success up to the next one's cost
+        ax.step([r[x] for r in front], [r[SUCCESS] for r in front], where="post", color="tab:red", lw=1)
+        ax.plot([r[x] for r in front], [r[SUCCESS] for r in front], "o", color="tab:red", label="Pareto front")
         for r in front:
             ax.annotate(label(r, varied), (r[x], r[SUCCESS]), fontsize=7, xytext=(4, 4), textcoords="offset points")
+    base = [r for r in ok if r["design_digest"] == base_digest]
+    if base:
+        ax.plot([base[0][x]], [base[0][SUCCESS]], "*", ms=14, mfc="none", color="k", label="the base design")
+    ax.margins(x=0.25)
     refused = sum(r["status"] == "refused" for r in rows)
     ax.set_xlabel(xlabel)
     ax.set_ylabel("grasp success, every whisker driven (%)")
@@ -117,22 +128,24 @@ def design_file_text(base_text: str, overrides: tuple[str, ...], header: str) ->
     return "".join(f"# {line}\n" for line in header.splitlines()) + text
 
 
-def write(out: Path, rows: list[dict], points, varied: list[str], base_text: str, summary: str) -> list[Path]:
-    """results.csv, pareto_*.png, pareto/*.toml (stale ones removed), summary.md; returns the paths."""
+def write(out: Path, rows: list[dict], points, varied: list[str], base_text: str, summary: str,
+          base_digest: str = "") -> list[Path]:
+    """results.csv, pareto_*.png, pareto/*.toml (stale ones removed), summary.md; returns the paths.
+    ``base_digest``: the design without the --vary values (marked in the plots when in the grid)."""
     out.mkdir(parents=True, exist_ok=True)
     paths = [atomic_write_text(out / "results.csv", results_csv(rows, varied))]
     chosen: dict[int, list[str]] = {}
     lines = [summary, ""]
     for x, xlabel, what, fname in FRONTS:
         front = pareto(rows, x)
-        paths.append(atomic_write_bytes(out / fname, plot_front(rows, front, x, xlabel, varied)))
+        paths.append(atomic_write_bytes(out / fname, plot_front(rows, front, x, xlabel, varied, base_digest)))
         for r in front:
             chosen.setdefault(r["point"], []).append(what)
         lines += [f"## Pareto front: grasp success against {what}", "",
                   "| design | grasp all % [95 %] | coil W | time to limit s | tilt deg | force mN | mm/px | file |",
                   "|---|---|---|---|---|---|---|---|"]
         lines += [f"| {label(r, varied)} | {r[SUCCESS]:.0f} [{r['grasp_all_lo']:.0f}-{r['grasp_all_hi']:.0f}] | "
-                  f"{r['coil_power_W']:.2f} | {_cell(r['time_to_limit_s'])} | {r['tilt_deg']:.1f} | "
+                  f"{r['coil_power_W']:.2f} | {r['time_to_limit_s']:.1f} | {r['tilt_deg']:.1f} | "
                   f"{r['force_rest_mN']:.1f} | {r['tip_mm_per_px']:.3f} | pareto/design-{r['design_digest']}.toml |"
                   for r in front]
         lines.append("")

@@ -103,7 +103,13 @@ def cli(design_file, overrides, varies, attempts, chunk, cad, jobs, workers, sch
                f"{counts['failed']} failed\n\n{attempts} attempts per object and configuration; CAD checks: {cad}; "
                f"{engine.name}; {prog.done - prog.cached} tasks run, {prog.cached} from the cache, "
                f"{time.perf_counter() - t0:.1f} s.")
-    paths = write(out, rows, points, varied, base_text, summary)
+    from whisker.design import DesignError, load_design
+
+    try:
+        base_digest = load_design(design_file, overrides).digest()
+    except DesignError:
+        base_digest = ""               # the base itself may be refused; only its grid points matter
+    paths = write(out, rows, points, varied, base_text, summary, base_digest)
     click.echo(summary.splitlines()[0].removeprefix("# ") + f"; wrote {out}/results.csv, pareto_*.png, "
                f"{sum(p.suffix == '.toml' for p in paths)} Pareto design files in {out}/pareto/")
     if prog.failed:
