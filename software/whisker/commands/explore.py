@@ -57,6 +57,11 @@ def cli(design_file, overrides, varies, attempts, chunk, cad, jobs, workers, sch
         points = grid(design_file, tuple(overrides), list(varies))
     except ExploreError as err:
         fail(str(err))
+    import importlib.util
+
+    for mod in ("mujoco", *(("cadquery",) if cad == "evaluate" else ())):   # [sim], [cad]: before any task
+        if importlib.util.find_spec(mod) is None:
+            raise ModuleNotFoundError(f"No module named {mod!r}", name=mod)
     from whisker.explore import Study, run, table
     from whisker.explore_report import write
     from whisker.explore_tasks import TaskCache
