@@ -199,3 +199,17 @@ def test_hostile_input_one_line(tmp_path, args, code, words):
     assert words in res.stderr and "Traceback" not in res.stderr
     assert len([ln for ln in res.stderr.splitlines() if ln.strip() and not ln.startswith(("Usage:", "Try "))]) == 1
     assert not (tmp_path / "h" / "results.csv").exists()
+
+
+def test_task_cache_keeps_inf_and_treats_a_broken_file_as_missing(tmp_path):
+    """A coil that never reaches its limit (time inf) survives the JSON cache; a file that is not a
+    finished task's (e.g. cut short by a full disk) is run again, not trusted."""
+    import math
+
+    from whisker.explore_tasks import TaskCache
+
+    c = TaskCache(tmp_path)
+    c.put("d1", "design.json", {"time_to_limit_s": math.inf, "held": [True, False], "limit": "PLA softening"})
+    assert c.get("d1", "design.json") == {"time_to_limit_s": math.inf, "held": [True, False], "limit": "PLA softening"}
+    (tmp_path / "d1" / "broken.json").write_text('{"value": [tru')
+    assert c.get("d1", "broken.json") is None and c.get("d2", "design.json") is None

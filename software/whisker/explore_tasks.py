@@ -183,7 +183,7 @@ class TaskCache:
 
     def get(self, digest: str, name: str):
         try:
-            return json.loads(self.path(digest, name).read_text())["value"]
+            return _unjsonable(json.loads(self.path(digest, name).read_text())["value"])
         except (FileNotFoundError, ValueError, KeyError):
             return None           # missing, or not a finished task's file: run it again
 
@@ -199,4 +199,15 @@ def _jsonable(v):
         return {k: _jsonable(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
         return [_jsonable(x) for x in v]
+    return v
+
+
+def _unjsonable(v):
+    """The reverse of :func:`_jsonable`: "inf" -> inf."""
+    if v in ("inf", "-inf"):
+        return float(v)
+    if isinstance(v, dict):
+        return {k: _unjsonable(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_unjsonable(x) for x in v]
     return v
