@@ -6,8 +6,8 @@
 #   make bench-explore                             attempts/s and designs/s at 1 and 2 workers
 EXPLORE_OUT ?= runs/explore
 VARY ?= whiskers.count=4,6,8 whiskers.ring_radius=8:16:2 actuation.voltage=2,3
-# ATTEMPTS given on the command line wins; otherwise 10 (sim.mk's ATTEMPTS default, 100, is for sim-grasp)
-EXPLORE_ATTEMPTS ?= $(if $(filter command line environment,$(origin ATTEMPTS)),$(ATTEMPTS),10)
+# ATTEMPTS given on the command line wins; otherwise 20 (sim.mk's ATTEMPTS default, 100, is for sim-grasp)
+EXPLORE_ATTEMPTS ?= $(if $(filter command line environment,$(origin ATTEMPTS)),$(ATTEMPTS),20)
 EXPLORE_CAD ?= evaluate
 
 .PHONY: explore bench-explore
