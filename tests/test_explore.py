@@ -116,6 +116,16 @@ def test_dask_local_cluster_gives_the_same_table(serial, tmp_path):
     assert "Dask LocalCluster, 2 worker processes" in (tmp_path / "w2" / "summary.md").read_text()
 
 
+def test_existing_dask_cluster_gives_the_same_table(serial, tmp_path):
+    """--scheduler ADDRESS: a cluster started elsewhere (here: a LocalCluster of this test process)."""
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        explore(*SMALL, "--scheduler", cluster.scheduler_address, "--out", tmp_path / "ext")
+    assert (tmp_path / "ext" / "results.csv").read_text() == (serial / "results.csv").read_text()
+    assert f"Dask scheduler {cluster.scheduler_address}" in (tmp_path / "ext" / "summary.md").read_text()
+
+
 def test_killed_run_resumes_to_the_same_table(serial, tmp_path):
     """SIGKILL part-way (only whole task files are left), then the same command: it runs only what is
     missing and the table is the serial one."""
