@@ -64,9 +64,17 @@ class DaskEngine:
             self.client = Client(address, timeout=f"{connect_timeout_s}s")
             self.name = f"Dask scheduler {address}"
         else:
-            # real processes (not threads): MuJoCo and the CAD kernel hold the GIL for long stretches
-            self.cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                        dashboard_address=None, silence_logs=logging.ERROR)
+            # real processes (not threads): MuJoCo and the CAD kernel hold the GIL for long stretches.
+            # The workers ignore Ctrl-C (inherited): this process catches it and closes the cluster,
+            # instead of every worker printing its own traceback.
+            import signal
+
+            old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+            try:
+                self.cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                            dashboard_address=None, silence_logs=logging.ERROR)
+            finally:
+                signal.signal(signal.SIGINT, old)
             self.client = Client(self.cluster)
             self.name = f"Dask LocalCluster, {workers} worker process{'es' if workers != 1 else ''}"
         self.workers = max(1, sum(self.client.nthreads().values()))

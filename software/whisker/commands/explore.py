@@ -88,6 +88,10 @@ def cli(design_file, overrides, varies, attempts, chunk, cad, jobs, workers, sch
         shown[0] = len(p.failures)
         bar.refresh()
 
+    import warnings
+
+    # an interrupt cancels the running tasks on purpose (they are not cached, a rerun does them)
+    warnings.filterwarnings("ignore", message=r".*tasks which were still being processed", category=UserWarning)
     t0 = time.perf_counter()
     try:
         prog = run(study, engine, TaskCache(out / "cache"), progress)
