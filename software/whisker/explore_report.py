@@ -17,7 +17,7 @@ import io
 import math
 from pathlib import Path
 
-from whisker.files import atomic_write_bytes, atomic_write_text, publish, staging_dir
+from whisker.files import atomic_write_bytes, atomic_write_text, drop_stale_staging, publish, staging_dir
 
 HEAD = ["point", "status", "reason", "design_digest"]
 PRED = ["whiskers", "ring_radius_mm", "volts", "tilt_deg", "stable", "tip_travel_mm", "force_rest_mN",
@@ -151,6 +151,7 @@ def write(out: Path, rows: list[dict], points, varied: list[str], base_text: str
         lines.append("")
     by_index = {p.index: p for p in points}
     target = out / "pareto"
+    drop_stale_staging(target)                 # left by a killed earlier run
     names = []
     with staging_dir(target) as tmp:
         for i, whats in sorted(chosen.items()):
