@@ -116,7 +116,7 @@ def test_bom_orders_the_wire_the_bobbin_takes_and_every_printed_part(d):
     assert rows["magnet_wire"].value == pytest.approx(want, abs=0.05)
     assert rows["coil"].specification.startswith(f"{w['turns']} turns")
     assert all(f"print_{p}" in rows for p in bom.PRINTED_PARTS) and rows["bobbin"].value == n
-    assert rows["insert_m3"].value == d.mount.mounting_hole_count and "ruthex" in rows["insert_m3"].specification
+    assert rows["insert_m3"].value == d.mount.mounting_hole_count + d.adapter.coupling_count and "ruthex" in rows["insert_m3"].specification
 
 
 def test_wound_coil_is_bobbin_and_full_annulus_with_the_rod_outside(d):

@@ -43,7 +43,7 @@ def test_bom_csv_columns_and_rows_parse():
         assert col in rows[0]
     items = {r["item"] for r in rows}
     assert {"rod", "coil", "magnet", "magnet_wire", "ecoflex", "pla", "h_bridge", "raspberry_pi",
-            "camera", "led_strip", "screw_m3x16", "screw_m2x5"} <= items
+            "camera", "led_strip", "screw_m3x10", "screw_m2x5"} <= items
     for r in rows:
         q = float(r["quantity"])
         assert math.isfinite(q) and q > 0, r

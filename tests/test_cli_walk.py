@@ -132,6 +132,8 @@ def base_args(path: tuple[str, ...], w: Path, fresh: Path) -> list[str]:
         ("sim",): [scene, "--explain"],
         ("cad", "build"): ["--out", str(fresh / "exports")],
         ("cad", "sweep"): ["--counts", "8", "--radii", "12", "--out", str(fresh / "sweep")],
+        ("explore",): ["--vary", "whiskers.count=2", "--attempts", "1", "--cad", "skip", "--jobs", "1", "-q",
+                       "--out", str(fresh / "explore")],
     }
     return list(table.get(path, []))
 

@@ -191,6 +191,7 @@ def test_core_runs_the_sensor_commands_from_outside_the_checkout(core, tmp_path)
     (["sim", "grasp", "--out", "runs", "--trials", "1", "--attempts", "1", "-q"], "sim"),
     (["hw", "pcb", "--out", "pcb"], "hw"),
     (["coil", "force", "--model", "magpylib"], "magnetics"),
+    (["explore", "--vary", "whiskers.count=8", "--cad", "skip", "--out", "runs"], "sim"),
 ])
 def test_core_names_the_missing_extra(core, args, extra, tmp_path):
     whisker, home, env = core
@@ -221,7 +222,7 @@ def full(wheel, tmp_path_factory):
 def test_all_install_builds_the_default_design_like_make_stl(full, default_build):
     whisker, home, env = full
     extras = doctor(run([whisker, "doctor"], cwd=home, env=env).stdout)["extras"][1]
-    assert "core + cad, hw, magnetics, sim" in extras and "not installed" not in extras, extras
+    assert "core + cad, explore, hw, magnetics, sim" in extras and "not installed" not in extras, extras
     ok(run([whisker, "cad", "build", "--out", "exports", "-q"], cwd=home, env=env))
     wheel_m, repo_m = load_manifest(home / "exports"), load_manifest(default_build)
     assert wheel_m["build_key"] == repo_m["build_key"], "another design or other CAD sources in the wheel"

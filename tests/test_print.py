@@ -265,7 +265,7 @@ def _check_print_cli(out: Path, *sets: str) -> dict:
     return json.loads((out / "print_report.json").read_text())
 
 
-SENSOR_PARTS = ("mount", "mold_base", "mold_lid", "whisker_ring", "adapter", "cover", "winding_jig")
+SENSOR_PARTS = ("mount", "mold_base", "mold_lid", "whisker_ring", "adapter", "flange_plate", "cover", "winding_jig")
 
 
 def _assert_sliced(p: dict):

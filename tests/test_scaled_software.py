@@ -55,7 +55,7 @@ def test_pin_map_netlist_and_bom_count_n(overrides):
     assert report.errors == 0, report.messages
     assert sum(1 for r in board.parts if r.startswith("L")) == n
     volumes = {"membrane": 2500.0, "mount": 40000.0, "mold_base": 9000.0, "mold_lid": 5000.0, "whisker_ring": 20000.0,
-               "adapter": 40000.0, "cover": 4700.0, "winding_jig": 2500.0, "bobbin": 44.0}
+               "adapter": 40000.0, "flange_plate": 20000.0, "cover": 4700.0, "winding_jig": 2500.0, "bobbin": 44.0}
     areas = {k: v / 5 for k, v in volumes.items()}
     rows = {r.item: r for r in bom_rows(d, volumes, coil_wire(d), None, areas, print_settings(d))}
     assert rows["rod"].value == rows["coil"].value == rows["magnet"].value == n

@@ -32,15 +32,12 @@ def test_a_number_in_the_file_pins_the_value():
     d = default_design("membrane.inscribed_radius=18", "mount.outer_radius=25", "camera.distance=40")
     assert (d.membrane.inscribed_radius, d.mount.outer_radius, d.camera.distance) == (18.0, 25.0, 40.0)
     assert d.source("membrane.inscribed_radius") == "file"
-    # with a plain adapter the bolt circle follows the pinned outer radius ...
-    plain = default_design("mount.outer_radius=25", 'adapter.preset="plain"')
-    assert plain.mount.mounting_bolt_radius == pytest.approx(25 - plain.mounting_hole_diameter / 2
-                                                             - plain.print.min_wall, abs=0.1)
-    # ... and with the UR flange it stays inside the flange's bolts by both clearance holes and a wall
-    from whisker.fasteners import fastener
-
-    holes = fastener("M6").clear_medium + fastener(d.fasteners.mount_screw).clear_medium
-    assert d.mount.mounting_bolt_radius <= 25.0 - holes / 2 - d.print.min_wall + 1e-9
+    # the bolt circle follows the pinned outer radius, whatever the robot flange (its bolts are on
+    # the adapter's flange plate, whisker.cad.adapter)
+    for preset in ("plain", "iso9409_50_4_m6", "iso9409_31_5_4_m5"):
+        p = default_design("mount.outer_radius=25", f'adapter.preset="{preset}"')
+        assert p.mount.mounting_bolt_radius == pytest.approx(25 - p.mounting_hole_diameter / 2
+                                                             - p.print.min_wall, abs=0.1)
 
 
 def test_sizes_grow_with_the_ring():

@@ -19,7 +19,7 @@ import trimesh
 from whisker.design import Design
 from whisker.files import atomic_write_json, drop_stale_staging, publish, staging_dir
 
-from . import checks, sequence
+from . import checks, mold_checks, sequence
 from .assembly import export_step, sensor_assembly
 from .buildkey import FORMATS, build_key, file_sha256
 from .parts import PARTS, print_pose, print_transform
@@ -172,6 +172,7 @@ def mesh_design_checks(d: Design, meshes: dict[str, trimesh.Trimesh]) -> list[ch
     """Part-specific checks on meshes in design coordinates."""
     return (checks.membrane_checks(meshes["membrane"], d)
             + checks.mold_checks(meshes["mold_base"], meshes["mold_lid"], d)
+            + mold_checks.release_checks(meshes["mold_base"], meshes["whisker_ring"], d)
             + checks.ring_checks(meshes["whisker_ring"], d)
             + checks.mount_checks(meshes["mount"], meshes["membrane"], d))
 

@@ -1,8 +1,9 @@
 """Whisker ring: the gluing and casting jig (printable).
 
-A ring plate with a blind socket per rod at the ring radius stands on a tube on the mould lid, so
-that with each rod pushed to the end of its socket the rod tip is exactly ``whiskers.protrusion``
-above the membrane and all rods stay parallel while the Ecoflex cures. The plate's central
+A ring plate with a blind socket per rod at the ring radius stands on a tube on the mould lid and
+keeps all rods parallel while the Ecoflex cures. The rods stand on their stops in the mould base
+(mold.py), so a nominal rod's tip is ``whiskers.protrusion`` above the membrane; each socket ends
+``mold.rod_slack`` above that tip (the axial slack: a rod cut a little long still reaches its stop). The plate's central
 opening lets the Ecoflex be poured into the lid's pour opening with the jig in place.
 """
 
@@ -29,7 +30,7 @@ def radii(d: Design) -> dict[str, float]:
 def levels(d: Design) -> dict[str, float]:
     lid_top = d.membrane.thickness + d.mold.lid_thickness
     tip = d.membrane.thickness + d.whiskers.protrusion
-    return dict(lid_top=lid_top, socket_bottom=tip, plate_bottom=tip - d.ring.hole_depth,
+    return dict(lid_top=lid_top, tip=tip, socket_bottom=tip + d.mold.rod_slack, plate_bottom=tip - d.ring.hole_depth,
                 top=tip - d.ring.hole_depth + d.ring.plate_thickness)
 
 

@@ -75,7 +75,7 @@ def _led_strip(d: Design) -> list[tuple[str, cq.Shape]]:
 
 def _adapter(d):
     from . import adapter
-    return [("adapter", adapter.adapter(d))]
+    return [("adapter", adapter.adapter(d)), ("flange plate", adapter.flange_plate(d))]
 
 
 def _cover(d):

@@ -41,22 +41,25 @@ from pathlib import Path
 from typing import Optional
 
 from whisker.design import Design
+from whisker.resources import hw_dir
 from whisker.driver import RESISTOR_LOAD, resistor_power_W, resistor_rating_W, series_resistance_ohm
 from whisker.guard import full_scale_voltage
 from whisker.pins import (LED_HEADER_PINS, PCA9685_CHANNELS, expander_boards_needed, module_makes_own_logic_supply,
                           modules_needed, pin_map, supply_warnings)
 
-COLUMNS = ("item", "category", "description", "quantity", "unit", "specification", "example_source",
-           "notes")
+COLUMNS = ("item", "category", "description", "quantity", "unit", "specification", "part_number",
+           "example_source", "notes")
 
 #: Printed parts and the reference part the Ecoflex volume comes from (names of whisker.cad.parts).
-PRINTED_PARTS = ("mount", "mold_base", "mold_lid", "whisker_ring", "adapter", "cover", "winding_jig")
+PRINTED_PARTS = ("mount", "mold_base", "mold_lid", "whisker_ring", "adapter", "flange_plate", "cover", "winding_jig")
+#: Printed once to set up the printer and the camera, not part of the sensor's PLA total.
+CALIBRATION_PARTS = ("tolerance_coupon", "board_holder")
 #: Printed on a resin printer (not PLA): one per whisker.
 RESIN_PARTS = ("bobbin",)
 MEMBRANE_PART = "membrane"
 
-#: K&J Magnetics D31: 3/16 in dia x 1/16 in thick N42 disc (the paper's magnet size).
-_KJ_D31 = (4.7625, 1.5875)
+#: Part numbers of well-known purchased parts, with their vendor and source (data, not code).
+PARTS_TABLE = hw_dir() / "bom_parts.csv"
 
 
 class BomError(ValueError):
@@ -71,6 +74,7 @@ class BomRow:
     quantity: str  # formatted number (kept as text so the CSV is byte-stable)
     unit: str
     specification: str
+    part_number: str
     example_source: str
     notes: str
 
@@ -269,7 +273,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
     rows: list[BomRow] = []
 
     def add(item, category, description, quantity, unit, spec, source, notes=""):
-        rows.append(BomRow(item, category, description, quantity, unit, spec, source, notes))
+        rows.append(BomRow(item, category, description, quantity, unit, spec, "", source, notes))
 
     w = d.whiskers
     add("rod", "buy", "whisker rod, carbon fibre", _num(n), "pcs",
@@ -303,11 +307,9 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         f"{b.coil_lead_length:g} mm leads) + {b.wire_waste:.0%} waste")
 
     m = d.magnet
-    kj = (abs(m.diameter - _KJ_D31[0]) < 0.05 and abs(m.height - _KJ_D31[1]) < 0.05)
     add("magnet", "buy", "NdFeB disc magnet in the mount wall", _num(n), "pcs",
         f"{m.grade} NdFeB disc {m.diameter:g} mm dia x {m.height:g} mm, axially magnetised",
-        "K&J Magnetics D31 (3/16 x 1/16 in)" if kj else "magnet suppliers (custom size)",
-        f"N pole faces the coil; max {m.max_temperature:g} C")
+        "magnet suppliers (custom size)", f"N pole faces the coil; max {m.max_temperature:g} C")
 
     mem = d.membrane
     vol_ml = volumes_mm3[MEMBRANE_PART] / 1000.0
@@ -337,6 +339,9 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         pla_total += g
         add(f"print_{name}", "print", BY_NAME[name].description, "1", "pcs", spec,
             "make stl (exports/)", f"print with exports/{name}.stl")
+    for name in CALIBRATION_PARTS:
+        add(f"print_{name}", "print", BY_NAME[name].description, "1", "pcs", "PLA, printed once (calibration)",
+            "make stl (exports/)", f"print with exports/{name}.stl; not in the sensor's PLA total")
     if use_slicer:
         how = "slicer report (PrusaSlicer, profile infill)"
     elif use_shell:
@@ -387,13 +392,18 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
     add("microsd", "buy", "microSD card for the Pi OS", "1", "pcs", "16 GB or more, class A1",
         "any", "")
 
+    from whisker.camera_boards import profile
+
     cam = d.camera
-    add("camera", "buy", "Raspberry Pi camera board with 160 deg M12 lens", "1", "pcs",
-        f"OV5647-class board {cam.board_width:g} x {cam.board_height:g} mm, M2 holes "
-        f"{cam.hole_spacing_x:g} x {cam.hole_spacing_y:g} mm, 160 deg M12 lens, used at "
-        f"{cam.width_px} x {cam.height_px}",
-        "Raspberry Pi camera boards with M12 mount (e.g. 'Pi camera 160 degree')",
-        "focus the lens on the coil plane")
+    prof = profile(cam.board)
+    add("camera", "buy", f"camera board: {prof.title}", "1", "pcs",
+        f"board {prof.board.width:g} x {prof.board.height:g} mm, holes {prof.holes.spacing_x:g} x "
+        f"{prof.holes.spacing_y:g} mm, used at {cam.width_px} x {cam.height_px} (camera.board = {cam.board})",
+        "Raspberry Pi camera boards", "focus the lens on the coil plane")
+    if find_part("lens", d):
+        add("lens", "buy", "M12 x 0.5 lens for the camera board", "1", "pcs",
+            "M12 x 0.5 (S-mount), 1/4 in sensor format, about 160 deg field of view", "M12 lens makers",
+            "often sold with the board; whisker calibrate camera measures its distortion")
     add("csi_cable", "buy", "camera flat cable", "1", "pcs",
         f"15-pin 1 mm pitch CSI ribbon, {d.mount.ribbon_width:g} mm wide, 300 mm",
         "Raspberry Pi approved resellers", "leaves the mount through the ribbon slot at -y")
@@ -429,15 +439,13 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         "22 AWG stranded, red/black", "any", f"+{vs:g} V and GND to each module's screw terminals")
 
     from whisker import fasteners as fz
-    from whisker.cad import adapter, cover
 
-    f = d.fasteners
-    joints = [fz.Joint("camera board", f.camera_screw, f.camera_joint, 4, d.camera.board_thickness),
-              *adapter.joints(d), *cover.joints(d)]
-    for line in fz.bom_lines(joints):
+    fastener_parts = {}
+    for line in fz.bom_lines(design_joints(d)):
+        fastener_parts[line["item"]] = line
         add(line["item"], "buy", "screw" if line["item"].startswith("screw") else "heat-set insert",
             _num(line["quantity"]), line["unit"], line["specification"],
-            "ruthex (inserts); any fastener supplier (ISO 4762 screws)", line["notes"]
+            "any fastener supplier", line["notes"]
             + ("; the cover's only without the adapter" if "camera cover" in line["notes"] else ""))
 
     add("glue", "consumable", "glue for rods, coils, magnets", "1", "set",
@@ -446,11 +454,100 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
     add("paint", "consumable", "paint: grey membrane top, red coil markers", "1", "set",
         "silicone-compatible grey paint; red paint marker", "any", "")
 
+    rows = [_with_part_number(r, d, fastener_parts.get(r.item)) for r in rows]
     for r in rows:  # one-line fields keep the CSV diffable
         for f in fields(r):
             if "\n" in getattr(r, f.name):
                 raise BomError(f"BOM field {f.name} of {r.item} contains a newline")
     return rows
+
+
+def design_joints(design: Design) -> list:
+    """Every fastened joint of the design (whisker.fasteners.Joint): the camera board's screws,
+    the adapter's (mount, flange plate, robot) and the camera cover's."""
+    from whisker import fasteners as fz
+    from whisker.cad import adapter, cover
+
+    f = design.fasteners
+    return [fz.Joint("camera board", f.camera_screw, f.camera_joint, 4, design.camera.board_thickness),
+            *adapter.joints(design), *cover.joints(design)]
+
+
+@dataclass(frozen=True)
+class CatalogPart:
+    """A row of hw/bom_parts.csv: a purchased part's number, vendor and source."""
+
+    item: str
+    part_number: str
+    vendor: str
+    kind: str  # exact | example
+    matches: tuple[tuple[str, str], ...]
+    source: str
+
+
+def load_parts_table(path: str | Path = PARTS_TABLE) -> list[CatalogPart]:
+    """The part-number table (hw/bom_parts.csv; '#' lines are comments)."""
+    try:
+        text = Path(path).read_text()
+    except OSError as err:
+        raise BomError(f"part-number table {path}: {err.strerror or err}") from None
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    out = []
+    for i, rec in enumerate(csv.DictReader(io.StringIO("\n".join(lines)))):
+        try:
+            matches = tuple(tuple(x.split("=", 1)) for x in (rec["matches"] or "").split(";") if x.strip())
+            if any(len(m) != 2 for m in matches) or rec["kind"] not in ("exact", "example"):
+                raise ValueError("matches must be key=value; kind exact or example")
+            if not (rec["item"] and rec["part_number"] and rec["vendor"] and rec["source"]):
+                raise ValueError("item, part_number, vendor and source are required")
+            out.append(CatalogPart(rec["item"], rec["part_number"], rec["vendor"], rec["kind"], matches, rec["source"]))
+        except (KeyError, TypeError, ValueError) as err:
+            raise BomError(f"part-number table {path} row {i + 1}: {err}") from None
+    return out
+
+
+def _matches(design: Design, key: str, want: str) -> bool:
+    obj = design
+    for k in key.split("."):
+        obj = getattr(obj, k, None)
+    if obj is None:
+        raise BomError(f"part-number table: unknown design value {key!r}")
+    if isinstance(obj, (int, float)) and not isinstance(obj, bool):
+        try:
+            w = float(want)
+        except ValueError:
+            return False
+        return abs(float(obj) - w) <= 0.01 * abs(w)
+    return str(obj) == want
+
+
+def find_part(item: str, design: Design, table: list[CatalogPart] | None = None) -> CatalogPart | None:
+    """The first row of the part-number table for `item` whose design values match, or None."""
+    table = load_parts_table() if table is None else table
+    for p in table:
+        if p.item == item and all(_matches(design, k, v) for k, v in p.matches):
+            return p
+    return None
+
+
+def _with_part_number(row: BomRow, design: Design, fastener_line: dict | None) -> BomRow:
+    """The row with its part number and vendor from hw/bom_parts.csv (screws and inserts from
+    their hw/fasteners.csv line)."""
+    from dataclasses import replace
+
+    item, fill = row.item, {}
+    if fastener_line is not None:
+        from whisker.fasteners import fastener
+
+        item = "screw" if row.item.startswith("screw_") else "insert"
+        f = fastener(fastener_line["size"])
+        fill = {"size": f.size, "length": f"{fastener_line.get('length', 0):g}", "insert_part": f.insert_part}
+    part = find_part(item, design)
+    if part is None:
+        return row
+    number = part.part_number.format(**fill) if fill else part.part_number
+    how = "" if part.kind == "exact" else "example: "
+    return replace(row, part_number=number, example_source=f"{how}{part.vendor} ({part.source})")
 
 
 def bom_csv(rows: list[BomRow]) -> str:

@@ -188,6 +188,8 @@ class Mold(_Section):
     pour_diameter: AutoMm = Field(description="mm; auto: the largest up to max_pour_diameter inside the ring")
     max_pour_diameter: float = Field(gt=0, le=100, description="mm, the pour opening a cup's spout needs")
     vent_diameter: float = Field(gt=0, le=20, description="mm")
+    draft_deg: float = Field(ge=0, le=15, description="deg, draft of the cavity's side walls (release upwards)")
+    rod_slack: float = Field(ge=0, le=10, description="mm of axial play above each rod's tip in the ring's socket")
 
 
 class Ring(_Section):
@@ -353,6 +355,7 @@ class Adapter(_Section):
     preset: str = Field("iso9409_50_4_m6", description="robot flange, a row of hw/flanges.csv (ISO 9409-1) or plain")
     under_head: float = Field(4.0, gt=0, le=50, description="mm of plate under each screw head at least")
     relief_depth: float = Field(2.5, ge=0, le=20, description="mm, top-face pocket for the board's back and cable")
+    coupling_count: int = Field(4, ge=2, le=12, description="screws from the adapter into the flange plate")
 
     @field_validator("preset")
     @classmethod

@@ -18,6 +18,7 @@ MODULES = {
     "hw": ("skidl", "kinparse"),
     "magnetics": ("magpylib",),
     "pi": ("lgpio", "smbus2"),
+    "explore": ("dask", "distributed"),
 }
 _EXTRA_OF = {m: extra for extra, mods in MODULES.items() for m in mods}
 

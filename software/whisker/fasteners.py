@@ -217,8 +217,8 @@ class Joint:
 
 
 def bom_lines(joints: list[Joint], table: dict[str, Fastener] | None = None) -> list[dict]:
-    """Purchase lines for the joints' screws and inserts, summed by part (dicts: item, quantity,
-    unit, specification, notes). Screws are ISO 4762 socket head cap screws."""
+    """Purchase lines for the joints' screws and inserts, summed by part (dicts: item, size, length
+    (screws), quantity, unit, specification, notes). Screws are ISO 4762 socket head cap screws."""
     screws: dict[tuple[str, float], list[str]] = {}
     inserts: dict[str, list[tuple[str, int]]] = {}
     counts: dict[tuple[str, float], int] = {}
@@ -233,12 +233,12 @@ def bom_lines(joints: list[Joint], table: dict[str, Fastener] | None = None) -> 
             inserts.setdefault(j.size, []).append((j.name, j.count))
     out = []
     for (size, length), n in sorted(counts.items(), key=lambda kv: (float(kv[0][0][1:]), kv[0][1])):
-        out.append({"item": f"screw_{size.lower()}x{length:g}", "quantity": n, "unit": "pcs",
+        out.append({"item": f"screw_{size.lower()}x{length:g}", "size": size, "length": length, "quantity": n, "unit": "pcs",
                     "specification": f"ISO 4762 {size} x {length:g} socket head cap screw, steel 8.8 or A2",
                     "notes": "for " + ", ".join(screws[(size, length)])})
     for size, uses in sorted(inserts.items(), key=lambda kv: float(kv[0][1:])):
         f = fastener(size, table)
-        out.append({"item": f"insert_{size.lower()}", "quantity": sum(n for _, n in uses), "unit": "pcs",
+        out.append({"item": f"insert_{size.lower()}", "size": size, "quantity": sum(n for _, n in uses), "unit": "pcs",
                     "specification": f"{f.insert_part} heat-set brass insert, {size}, {f.insert_length:g} mm long, "
                                      f"OD {f.insert_od:g} mm, into a {f.insert_hole:g} mm hole "
                                      f"{f.insert_hole_depth:g} mm deep",

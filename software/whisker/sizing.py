@@ -259,29 +259,14 @@ def mount_outer_radius(d: "Design", auto: frozenset = frozenset()) -> float:
     return ceil_step(need, MOUNT_STEP_MM)
 
 
-def _inside_robot_flange(d: "Design") -> float:
-    """Largest bolt-circle radius that keeps the mount's screws inside the robot flange's bolts on the
-    adapter plate (both clearance holes and print.min_wall apart), mm; inf without robot bolts."""
-    from whisker import fasteners
-    from whisker.cad import extras  # the flange table (hw/flanges.csv); no CadQuery
-
-    fl = extras.flange(extras.section(d, "adapter").preset)
-    if not fl.bolt_count:
-        return math.inf
-    robot, screw = fasteners.fastener(fl.thread), fasteners.fastener(d.fasteners.mount_screw)
-    return fl.pitch_diameter / 2 - (robot.clear_medium + screw.clear_medium) / 2 - d.print.min_wall
-
-
 def mounting_bolt_radius(d: "Design", auto: frozenset = frozenset()) -> float:
     """As far out as the outer wall allows (print.min_wall outside each hole), so the holes keep the
-    most material to the camera pocket, but inside the robot flange's bolt circle by both clearance
-    holes and a wall (the adapter plate carries both); rounded down to 0.1 mm."""
+    most material to the camera pocket; rounded down to 0.1 mm. The robot flange's bolts are on
+    another plate (whisker.cad.adapter's flange plate), so every flange takes the same mount."""
     m = d.mount
     need = _mounting_hole_needs(d) if m.mounting_hole_count else 0.0
     out = floor_step(m.outer_radius - d.mounting_hole_diameter / 2 - d.print.min_wall, 0.1)
-    flange = _inside_robot_flange(d)
-    inside = floor_step(flange, 0.1) if math.isfinite(flange) else out
-    return round(max(need, min(out, inside)), 3)
+    return round(max(need, out), 3)
 
 
 def cable_exit_count(d: "Design", auto: frozenset = frozenset()) -> int:
