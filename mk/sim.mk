@@ -5,12 +5,16 @@
 #   make sim-dataset TRIALS=5      scene 4: classification dataset (runs/classification/dataset/<object>.csv)
 #   make sim-camera                end to end: frames -> tracker -> geometry, tip RMS error
 #   make sim-paper                 all of the above;  make sim-bench: accuracy vs cost table
+#   make sim-sensitivity           compliant contact: grasp table rigid vs compliant vs paper, each cell across
+#                                  each material parameter's published range, cost (COMPLIANT_ATTEMPTS, SENS_ATTEMPTS)
 SIM_SCENES := software/whisker/sim/scenes
 SIM_RUNS ?= runs
 ATTEMPTS ?= 100
 TRIALS ?= 5
 
-.PHONY: sim-angle sim-grasp sim-displacement sim-dataset sim-camera sim-paper sim-bench
+.PHONY: sim-angle sim-grasp sim-displacement sim-dataset sim-camera sim-paper sim-bench sim-sensitivity
+COMPLIANT_ATTEMPTS ?= 100
+SENS_ATTEMPTS ?= 20
 
 sim-angle: $(BIN)/.installed ## simulated angle vs voltage (paper Fig. 4) -> runs/angle-vs-voltage/
 	$(BIN)/whisker sim $(SIM_SCENES)/angle_vs_voltage.toml $(foreach s,$(SET),--set $(s)) --out $(SIM_RUNS)/angle-vs-voltage
@@ -31,3 +35,6 @@ sim-paper: sim-angle sim-grasp sim-displacement sim-dataset sim-camera ## every 
 
 sim-bench: $(BIN)/.installed ## simulator accuracy vs cost -> benchmarks/results/sim.{md,csv,png}
 	$(BIN)/python benchmarks/bench_sim.py
+
+sim-sensitivity: $(BIN)/.installed ## compliant vs rigid grasp table, material sensitivity, cost -> benchmarks/results/sim_compliant.{md,csv}
+	COMPLIANT_ATTEMPTS=$(COMPLIANT_ATTEMPTS) SENS_ATTEMPTS=$(SENS_ATTEMPTS) nice $(BIN)/python benchmarks/bench_compliant.py

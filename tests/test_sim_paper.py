@@ -16,6 +16,7 @@ pytest.importorskip("mujoco", reason="MuJoCo (pip install mujoco) is needed for 
 from whisker.design import default_design  # noqa: E402
 from whisker.sim import load_scene, plan  # noqa: E402
 from whisker.sim import experiments, paper  # noqa: E402
+from whisker.sim.scene import scene_with_overrides  # noqa: E402
 
 SCENES = ROOT / "software" / "whisker" / "sim" / "scenes"
 D = default_design()
@@ -156,8 +157,10 @@ def test_small_grasp_table_has_intervals_and_order(tmp_path):
 def test_grasp_table_of_the_paper_scene_is_ordered_for_every_object():
     """Issue 8's acceptance: the committed grasp scene (100 common placements per object) gives
     8 > 4 > 2 whiskers strictly for every object, and no placement where fewer whiskers hold and more
-    drop except at most one. Deterministic (seeded placements, single-threaded MuJoCo); ~2 min."""
-    s = load_scene(SCENES / "grasp.toml")
+    drop except at most one. Deterministic (seeded placements, single-threaded MuJoCo); ~2 min.
+    Rigid contacts (fidelity.compliance = 'off'): the model of issue 8, unchanged by issue 18's
+    compliant contact (test_sim_compliant runs the compliant table)."""
+    s = scene_with_overrides(load_scene(SCENES / "grasp.toml"), ["fidelity.compliance=off"])
     tab = paper.grasp_table(s, D)
     assert tab["attempts"] == 100 and len(tab["rates"]) == 5
     for name, order in tab["order"].items():

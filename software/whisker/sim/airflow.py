@@ -25,6 +25,8 @@ import math
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from whisker.sim.graph import Effect
+
 
 class AirflowSpec(BaseModel):
     """The scene's ``[airflow]`` section (no flow by default)."""
@@ -64,8 +66,6 @@ def mean_torque_Nm(design, spec: AirflowSpec) -> float:
 def effect(spec: AirflowSpec | None, design, stiffness_Nm_rad: float | None = None):
     """The plan entry (whisker.sim.effects.Effect): built when the scene has a flow, with the
     mean tilt it causes."""
-    from whisker.sim.effects import Effect   # here, not at the top: effects imports the scene, which imports this
-
     if spec is None or not spec.on:
         return Effect("airflow", False, "no airflow in the scene")
     tau = mean_torque_Nm(design, spec)

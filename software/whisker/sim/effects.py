@@ -11,6 +11,10 @@ with a one-line reason either way. The simulator builds exactly the effects mark
     heating      magnetics, and the drive would warm a coil by more than the threshold (needs magnetics)
     contact      an object within reach of the tips along the path, or the tips reach the table,
                  or fidelity.contact = "on" (MuJoCo: capsule whiskers, bodies, friction, gravity)
+    compliance   contact, and an object or the tips name a material soft enough for the time step:
+                 Hertz contact mapped onto MuJoCo's solref/solimp (whisker.sim.compliant; one module
+                 per contact model, listed in CONTACT_MODELS)  (needs contact)
+    airflow      the scene has a flow (whisker.sim.airflow)
     camera       the camera is on and frames, video or tracks are wanted (whisker.render)
     tracking     the camera is built and tracks are wanted (whisker.tracking + whisker.geometry)
     solver       static equilibrium when nothing moves, else time stepping (MuJoCo when contact)
@@ -19,100 +23,20 @@ with a one-line reason either way. The simulator builds exactly the effects mark
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
+from whisker.sim.graph import Effect, Plan
 from whisker.sim.scene import Scene, SceneError
+from whisker.sim.timeline import levels_at, path_samples
 
-ORDER = ("kinematics", "gravity", "motion", "magnetics", "heating", "contact", "camera", "tracking", "solver")
+from whisker.sim import compliant
 
-
-@dataclass(frozen=True)
-class Effect:
-    name: str
-    built: bool
-    reason: str
-    needs: tuple[str, ...] = ()
-    detail: dict = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class Plan:
-    effects: tuple[Effect, ...]
-    solver: str                   # "static", "free" (own integrator) or "mujoco"
-
-    def built(self, name: str) -> bool:
-        return any(e.name == name and e.built for e in self.effects)
-
-    def effect(self, name: str) -> Effect:
-        return next(e for e in self.effects if e.name == name)
-
-    @property
-    def names(self) -> list[str]:
-        return [e.name for e in self.effects if e.built]
-
-    def explain(self) -> str:
-        lines = []
-        for e in self.effects:
-            mark = "built  " if e.built else "skipped"
-            lines.append(f"{mark} {e.name:<11} {e.reason}")
-        return "\n".join(lines)
-
-    def to_dict(self) -> dict:
-        return {"solver": self.solver,
-                "effects": [{"name": e.name, "built": e.built, "reason": e.reason} for e in self.effects]}
-
-
-def levels_at(scene: Scene, n: int, t: float) -> np.ndarray:
-    """Signed duty of each of `n` whiskers at time t from the schedule (piecewise constant)."""
-    lv = np.zeros(n)
-    for ev in scene.actuation.schedule:
-        if ev.t > t:
-            break
-        idx = range(n) if ev.whiskers is None else ev.whiskers
-        for i in idx:
-            if not 0 <= i < n:
-                raise SceneError(f"actuation.schedule: whisker {i} does not exist (the design has {n})")
-            lv[i] = ev.level
-    return lv
-
-
-def levels_table(scene: Scene, n: int, times: np.ndarray) -> np.ndarray:
-    """Levels (T, n) at each of `times` (vectorised :func:`levels_at`)."""
-    times = np.asarray(times, dtype=float)
-    out = np.zeros((len(times), n))
-    for ev in scene.actuation.schedule:
-        idx = list(range(n)) if ev.whiskers is None else ev.whiskers
-        for i in idx:
-            if not 0 <= i < n:
-                raise SceneError(f"actuation.schedule: whisker {i} does not exist (the design has {n})")
-        out[np.ix_(times >= ev.t, idx)] = ev.level
-    return out
-
-
-def poses_table(scene: Scene, times: np.ndarray) -> np.ndarray:
-    """Poses (T, 4) at each of `times` (vectorised :func:`pose_at`)."""
-    p = np.asarray(scene.sensor.path, dtype=float)
-    times = np.asarray(times, dtype=float)
-    if len(p) == 1:
-        return np.repeat(p[:1, 1:], len(times), axis=0)
-    return np.stack([np.interp(times, p[:, 0], p[:, k]) for k in range(1, 5)], axis=1)
-
-
-def pose_at(scene: Scene, t: float) -> np.ndarray:
-    """Sensor pose [x_mm, y_mm, tip_height_mm, yaw_deg] at time t (linear between waypoints)."""
-    p = np.asarray(scene.sensor.path, dtype=float)
-    if len(p) == 1:
-        return p[0, 1:].copy()
-    return np.array([np.interp(t, p[:, 0], p[:, k]) for k in range(1, 5)])
-
-
-def _path_samples(scene: Scene, duration: float) -> np.ndarray:
-    p = np.asarray(scene.sensor.path, dtype=float)
-    t_end = max(duration, p[-1, 0])
-    ts = np.unique(np.concatenate([p[:, 0], np.linspace(0, t_end, 200)]))
-    return np.array([pose_at(scene, t) for t in ts])
+ORDER = ("kinematics", "gravity", "motion", "magnetics", "heating", "contact", "compliance", "airflow", "camera",
+         "tracking", "solver")
+#: contact models beyond the rigid one, in the order they are applied (each: NAME, effect(), apply();
+#: see whisker.sim.compliant). Adding a contact model = its module + one entry here.
+CONTACT_MODELS = (compliant,)
 
 
 def reach(design, body) -> tuple[float, float]:
@@ -131,7 +55,7 @@ def objects_in_reach(scene: Scene, design, margin_mm: float = 1.0) -> list[str]:
     if not scene.objects:
         return []
     duration = scene.scene.duration
-    poses = _path_samples(scene, duration)
+    poses = path_samples(scene, duration)
     r_reach = design.whiskers.ring_radius + design.l_u * math.sin(math.radians(35)) + margin_mm
     out = []
     for o in scene.objects:
@@ -247,7 +171,7 @@ def plan(scene: Scene, design) -> Plan:
         # an experiment's coils warm during one of its attempts; a plain scene's during its schedule
         try:
             if attempts:
-                from whisker.sim.paper import grasp_level, grasp_scene
+                from whisker.sim.protocol import grasp_level, grasp_scene
                 rep = grasp_scene(scene, scene.objects[0], list(range(n)), release=ex == "displacement",
                                   level=grasp_level(design))
                 what = f"one {ex} attempt ({rep.scene.duration:.2g} s)"
@@ -282,6 +206,8 @@ def plan(scene: Scene, design) -> Plan:
     if not contact and tips_low:
         contact, why = True, "the tips reach the table top (tip height <= 0 mm on the path)"
     effects.append(Effect("contact", contact, why, needs=("kinematics", "gravity")))
+    for model in CONTACT_MODELS:
+        effects.append(model.effect(scene, design, contact, body))
     from whisker.sim.airflow import effect as airflow_effect
     effects.append(airflow_effect(scene.airflow, design, body.stiffness if body is not None else None))
     if scene.airflow.on and contact:

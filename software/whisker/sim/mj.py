@@ -35,8 +35,12 @@ import math
 
 import numpy as np
 
-from whisker.sim.effects import levels_table, pose_at, poses_table
-from whisker.sim.kinematics import energy_J, marker_positions_mm, tip_positions_mm
+from whisker.sim.drive import Drive
+from whisker.sim.effects import CONTACT_MODELS
+from whisker.sim.meshes import mesh_bounds, mesh_path
+from whisker.sim.result import SimulationError
+from whisker.sim.scene import SceneError
+from whisker.sim.timeline import pose_at, poses_table
 
 MM = 1e-3
 
@@ -102,7 +106,7 @@ def build_mjcf(scene, design, body) -> str:
         out.append("<asset>")
         for o in meshes:
             k = o.size[0] * MM
-            out.append(f'<mesh name="mesh:{o.name}" file="{_mesh_path(scene, o)}" scale="{k:.9g} {k:.9g} {k:.9g}"/>')
+            out.append(f'<mesh name="mesh:{o.name}" file="{mesh_path(scene, o)}" scale="{k:.9g} {k:.9g} {k:.9g}"/>')
         out.append("</asset>")
     out.append('<worldbody>')
     if scene.table.enabled:
@@ -143,53 +147,30 @@ def build_mjcf(scene, design, body) -> str:
     return "\n".join(out)
 
 
-def object_friction(o, design) -> float:
-    """An object's Coulomb coefficient against the sand-coated tips: its own, else the design's."""
-    return design.mechanics.tip_friction if o.friction is None else o.friction
+def object_friction(o, design, scene=None) -> float:
+    """An object's Coulomb coefficient against the sand-coated tips: its own (the pair's), else the tip
+    cap material's (``contact.tip_material``, when it gives one), else the design's tip_friction."""
+    if o.friction is not None:
+        return o.friction
+    cap = scene.materials.get(scene.contact.tip_material) if scene is not None and scene.contact.tip_material else None
+    return cap.friction if cap is not None and cap.friction is not None else design.mechanics.tip_friction
 
 
 def _object_xml(scene, o, design) -> str:
     yaw = math.radians(o.yaw)
     q = [math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
-    fr = f'friction="{_fr(scene, object_friction(o, design))}" contype="1" conaffinity="3" priority="1"'
+    fr = f'friction="{_fr(scene, object_friction(o, design, scene))}" contype="1" conaffinity="3" priority="1"'
     if o.shape == "mesh":
-        g = f'<geom type="mesh" mesh="mesh:{o.name}" mass="{o.mass * 1e-3:.9g}" {fr}/>'
-        z = -_mesh_bounds(scene, o)[0][2] * o.size[0] * MM      # its lowest point rests on the table
+        g = f'<geom type="mesh" name="obj:{o.name}:0" mesh="mesh:{o.name}" mass="{o.mass * 1e-3:.9g}" {fr}/>'
+        z = -mesh_bounds(scene, o)[0][2] * o.size[0] * MM      # its lowest point rests on the table
     else:
-        g = "".join(f'<geom type="{sh}" size="{_f(np.asarray(sz) * MM)}" pos="{_f(np.asarray(ps) * MM)}" '
-                    f'mass="{m * 1e-3:.9g}" {fr}/>' for sh, sz, ps, m in o.geoms())
+        g = "".join(f'<geom type="{sh}" name="obj:{o.name}:{k}" size="{_f(np.asarray(sz) * MM)}" '
+                    f'pos="{_f(np.asarray(ps) * MM)}" mass="{m * 1e-3:.9g}" {fr}/>'
+                    for k, (sh, sz, ps, m) in enumerate(o.geoms()))
         z = o.half_height * MM
     joint = "" if o.fixed else "<freejoint/>"
     return (f'<body name="obj:{o.name}" pos="{o.pos[0] * MM:.9g} {o.pos[1] * MM:.9g} {z + 1e-5:.9g}" quat="{_f(q)}">'
             f'{joint}{g}</body>')
-
-
-def _mesh_path(scene, o) -> str:
-    from pathlib import Path
-
-    from whisker.sim.scene import SceneError
-
-    p = Path(o.mesh)
-    p = p if p.is_absolute() else Path(scene.base_dir) / p
-    if not p.is_file():
-        raise SceneError(f"object {o.name!r}: mesh file not found: {p}")
-    return str(p.resolve())
-
-
-def _mesh_bounds(scene, o) -> np.ndarray:
-    """(2, 3) bounds of the mesh in its file's units (read with trimesh)."""
-    import trimesh
-
-    from whisker.sim.scene import SceneError
-
-    try:
-        m = trimesh.load_mesh(_mesh_path(scene, o))
-    except Exception as err:  # trimesh raises many types for unreadable files
-        raise SceneError(f"object {o.name!r}: cannot read mesh {o.mesh!r} ({err})") from None
-    b = np.asarray(m.bounds, dtype=float)
-    if b.shape != (2, 3) or not np.all(np.isfinite(b)):
-        raise SceneError(f"object {o.name!r}: mesh {o.mesh!r} has no finite bounds")
-    return b
 
 
 class MjScene:
@@ -198,16 +179,16 @@ class MjScene:
     def __init__(self, scene, design, plan, body):
         import mujoco
 
-        from whisker.sim.simulate import Drive
-
         self.mujoco = mujoco
         self.scene, self.design, self.body = scene, design, body
         self.xml = build_mjcf(scene, design, body)
         try:
             self.model = mujoco.MjModel.from_xml_string(self.xml)
         except ValueError as err:
-            from whisker.sim.scene import SceneError
             raise SceneError(f"MuJoCo refused the scene: {str(err).splitlines()[0]}") from None
+        for model in CONTACT_MODELS:           # contact models beyond the rigid one (whisker.sim.effects)
+            if plan.built(model.NAME):
+                model.apply(plan.effect(model.NAME), self)
         self.data = mujoco.MjData(self.model)
         n = design.whiskers.count
         self.n = n
@@ -270,7 +251,6 @@ class MjScene:
         self.mujoco.mj_step(self.model, d, nstep)
         bad = d.warning[self.mujoco.mjtWarning.mjWARN_BADQACC]
         if bad.number:                            # MuJoCo reset the state: the run is no longer physical
-            from whisker.sim.simulate import SimulationError
             raise SimulationError(f"MuJoCo found an unstable acceleration (DOF {bad.lastinfo}) near t = "
                                   f"{self.t + dt * nstep:.4g} s and reset the state; use a smaller "
                                   "scene.timestep or a softer contact (contact.solref_timeconst)")
@@ -281,63 +261,3 @@ class MjScene:
         dt = self.model.opt.timestep
         arm0, arm1 = self.arm_table(np.array([self.t, self.t + dt]))
         self.advance(levels, arm0, arm1, 1)
-
-
-def run_mujoco(scene, design, plan, body, progress, record_hz):
-    from whisker.sim.scene import SceneError
-    from whisker.sim.simulate import Result, SimulationError
-
-    dt = scene.scene.timestep
-    duration = scene.scene.duration
-    if duration <= 0:
-        raise SceneError("scene.duration must be > 0 s for a contact scene")
-    if dt * body.omega_n > 0.5:
-        raise SceneError(f"scene.timestep {dt:g} s is too large for the whisker spring in MuJoCo "
-                         f"(dt x omega_n = {dt * body.omega_n:.2g} > 0.5); use <= {0.5 / body.omega_n:.2g} s")
-    sim = MjScene(scene, design, plan, body)
-    steps = int(math.ceil(duration / dt - 1e-9))
-    every = max(1, int(round(1.0 / (record_hz * dt))))
-    chunk = max(1, min(scene.contact.chunk, every))
-    times = np.arange(steps + 1) * dt
-    arm = sim.arm_table(times)
-    levels = levels_table(scene, design.whiskers.count, times)
-    # chunk boundaries: every `chunk` steps, at every recording, at every waypoint and level change
-    cuts = set(range(0, steps + 1, chunk)) | set(range(0, steps + 1, every)) | {steps}
-    for w in scene.sensor.path:
-        cuts.add(min(steps, int(round(w[0] / dt))))
-    for ev in scene.actuation.schedule:
-        cuts.add(min(steps, int(math.ceil(ev.t / dt - 1e-9))))
-    cuts = sorted(cuts)
-    rec = {"t": [], "th": [], "om": [], "lv": [], "obj": [], "E": [], "nc": [], "T": []}
-    for a, b in zip(cuts, cuts[1:] + [None]):
-        if a % every == 0 or a == steps:
-            th = sim.theta()
-            if not (np.all(np.isfinite(th)) and np.all(np.isfinite(sim.data.qvel))):
-                raise SimulationError(f"MuJoCo state became non-finite at t = {sim.t:.4g} s; use a smaller "
-                                      "scene.timestep or a softer contact")
-            rec["t"].append(a * dt); rec["th"].append(th); rec["om"].append(sim.omega()); rec["lv"].append(levels[a])
-            rec["obj"].append(sim.objects_mm()); rec["nc"].append(sim.data.ncon); rec["T"].append(sim.drive.T.copy())
-            rec["E"].append(float(sim.data.energy.sum()))
-            if progress and a % (every * 50) == 0:
-                progress(a / steps)
-        if b is None:
-            break
-        sim.advance(levels[a], arm[a], arm[b], b - a)
-        sim.t = b * dt
-    theta = np.array(rec["th"])
-    omega = np.array(rec["om"])
-    # MuJoCo's joint limit is a soft constraint: a rigid path pushing a whisker against a held object
-    # can drive it past the stop. The mount's stop is hard: report the excess and clamp the reading.
-    over = float(np.degrees(max(0.0, np.abs(theta).max() - body.stop_rad))) if theta.size else 0.0
-    theta = np.clip(theta, -body.stop_rad, body.stop_rad)
-    e_wh = energy_J(body, theta, omega, scene.sensor.facing).sum(axis=-1)
-    res = Result(plan=plan, t_s=np.array(rec["t"]), theta_rad=theta, tips_mm=tip_positions_mm(design, theta),
-                 markers_mm=marker_positions_mm(design, theta), energy_J=e_wh, levels=np.array(rec["lv"]),
-                 objects_mm=np.array(rec["obj"]), object_names=[o.name for o in scene.objects],
-                 sensor_pose=poses_table(scene, np.array(rec["t"])), contacts=np.array(rec["nc"]),
-                 steps=steps, info={"mujoco_energy_J": rec["E"][-1], "mujoco_energy_max_J": max(rec["E"]),
-                       "mujoco_energy_start_J": rec["E"][0],
-                       "stop_violation_max_deg": over})
-    if sim.drive.heating:
-        res.temperature_C = np.array(rec["T"])
-    return res

@@ -29,6 +29,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from whisker.design import one_line_errors, parse_value
 from whisker.sim.airflow import AirflowSpec
+from whisker.sim.materials import Material
 from whisker.files import read_toml
 
 
@@ -170,6 +171,8 @@ class SceneObject(_S):
     fixed: bool = Field(False, description="held in place (a static body) instead of free on the table")
     parts: list[Part] = Field(default_factory=list, description="extra primitives on the core (irregular shapes); "
                                                                 "the mass is shared by volume")
+    material: str | None = Field(None, description="a name in the scene's materials (compliant contact); "
+                                                   "none: rigid")
 
     @model_validator(mode="after")
     def _check(self) -> "SceneObject":
@@ -274,6 +277,9 @@ class Fidelity(_S):
     heating: Literal["auto", "on", "off"] = "auto"
     heating_threshold_K: float = Field(0.5, gt=0, le=1000, description="K of predicted coil rise that turns heating on")
     contact: Literal["auto", "on"] = Field("auto", description="'on' builds MuJoCo even without objects")
+    compliance: Literal["auto", "off"] = Field("auto", description=(
+        "'auto': compliant (Hertz) contact for the materials the objects and tips name, where the time "
+        "step resolves it; 'off': every contact rigid (the model before materials)"))
     solver: Literal["auto", "static", "dynamic"] = "auto"
     integrator: Literal["implicit", "euler"] = "implicit"
 
@@ -298,6 +304,19 @@ class ContactSpec(_S):
     solref_timeconst: float = Field(0.004, gt=0, le=1, description="s, contact stiffness time constant")
     chunk: int = Field(5, ge=1, le=1000, description="MuJoCo steps between Python updates (path velocity, "
                                                      "coil torque linearisation, heating)")
+    tip_material: str | None = Field(None, description="material of the tips' sand cap (compliant contact); none: rigid tips")
+    load_range_mN: tuple[float, float] = Field((1.0, 20.0), description=(
+        "mN, the normal loads over which a compliant contact follows Hertz (a whisker presses 1-20 mN)"))
+    nominal_load_mN: float = Field(2.0, gt=0, le=1000, description=(
+        "mN, the load at which a compliant contact's patch radius (torsional friction) is taken: a "
+        "closing whisker presses ~1-2 mN (docs/sim.md, Scene 2)"))
+
+    @model_validator(mode="after")
+    def _loads(self) -> "ContactSpec":
+        lo, hi = self.load_range_mN
+        if not 0 < lo < hi <= 1e4:
+            raise ValueError(f"contact.load_range_mN must be 0 < low < high <= 1e4 mN (got {list(self.load_range_mN)})")
+        return self
 
 
 class Experiment(_S):
@@ -335,6 +354,7 @@ class Scene(_S):
     contact: ContactSpec = ContactSpec()
     experiment: Experiment = Experiment()
     airflow: AirflowSpec = AirflowSpec()
+    materials: dict[str, Material] = Field(default_factory=dict, description="contact materials by name (materials_from)")
     base_dir: str = Field(".", description="folder relative paths resolve against (set by load_scene)")
 
     @model_validator(mode="after")
@@ -345,6 +365,13 @@ class Scene(_S):
         for n in self.experiment.objects:
             if n not in names:
                 raise ValueError(f"experiment.objects names {n!r}, which is not an object of the scene")
+        known = ", ".join(self.materials) or "none; add materials_from = \"materials.toml\""
+        for o in self.objects:
+            if o.material is not None and o.material not in self.materials:
+                raise ValueError(f"object {o.name!r}: material {o.material!r} is not in the scene's materials ({known})")
+        tm = self.contact.tip_material
+        if tm is not None and tm not in self.materials:
+            raise ValueError(f"contact.tip_material {tm!r} is not in the scene's materials ({known})")
         return self
 
     # --- derived -------------------------------------------------------------------------------
@@ -372,26 +399,39 @@ def scene_from_dict(data: dict[str, Any]) -> Scene:
         raise SceneError(one_line_errors(err)) from None
 
 
+def _shared_file(path: Path, data: dict, key: str, section: str, kind: type, what: str):
+    """The `section` of the TOML file a scene's top-level `key` names (relative to the scene), or None."""
+    src = data.pop(key, None)
+    if src is None:
+        return None
+    if not isinstance(src, str) or not src:
+        raise SceneError(f"{key}: expected a TOML file name (got {src!r})")
+    f = path.resolve().parent / src
+    if not f.is_file():
+        raise SceneError(f"{key}: no such file {f}")
+    shared = read_toml(f, f"{section} file", SceneError).get(section, kind())
+    if not isinstance(shared, kind) or not shared:
+        raise SceneError(f"{key}: {f.name} has no {what}")
+    return shared
+
+
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene TOML file. Raises :class:`SceneError` (one line) when it is bad.
 
     A top-level ``objects_from = "FILE.toml"`` (relative to the scene) reads that file's ``[[objects]]``
-    ahead of the scene's own, so several scenes share one definition of the paper's objects.
+    ahead of the scene's own, so several scenes share one definition of the paper's objects; a top-level
+    ``materials_from = "FILE.toml"`` reads that file's ``[materials.NAME]`` (whisker.sim.materials) under
+    the scene's own.
     """
     path = Path(path)
     data = read_toml(path, "scene", SceneError)
     data.setdefault("base_dir", str(path.resolve().parent))
-    src = data.pop("objects_from", None)
-    if src is not None:
-        if not isinstance(src, str) or not src:
-            raise SceneError(f"objects_from: expected a TOML file name (got {src!r})")
-        f = path.resolve().parent / src
-        if not f.is_file():
-            raise SceneError(f"objects_from: no such file {f}")
-        shared = read_toml(f, "objects file", SceneError).get("objects", [])
-        if not isinstance(shared, list) or not shared:
-            raise SceneError(f"objects_from: {f.name} has no [[objects]]")
+    shared = _shared_file(path, data, "objects_from", "objects", list, "[[objects]]")
+    if shared is not None:
         data["objects"] = [*shared, *data.get("objects", [])]
+    shared = _shared_file(path, data, "materials_from", "materials", dict, "[materials.NAME] tables")
+    if shared is not None:
+        data["materials"] = {**shared, **data.get("materials", {})}
     return scene_from_dict(data)
 
 
@@ -410,8 +450,15 @@ def scene_with_overrides(scene: Scene, overrides) -> Scene:
                                  f"{', '.join(o['name'] for o in data['objects']) or 'none'})")
             hit[0][k] = parse_value(text.strip())
             continue
+        if sep and len(parts) == 3 and parts[0] == "materials" and all(parts):
+            _, name, k = parts                       # materials.<name>.<key>: one material, by name
+            if name not in data["materials"]:
+                raise SceneError(f"scene override {item!r}: no material named {name!r} (materials: "
+                                 f"{', '.join(data['materials']) or 'none'})")
+            data["materials"][name][k] = parse_value(text.strip())
+            continue
         if not sep or len(parts) != 2 or not all(parts):
-            raise SceneError(f"scene override {item!r}: expected section.key=value or objects.NAME.key=value")
+            raise SceneError(f"scene override {item!r}: expected section.key=value, objects.NAME.key=value or materials.NAME.key=value")
         sec, k = parts
         if not isinstance(data.get(sec), dict):
             raise SceneError(f"scene override {item!r}: no section {sec!r} (one of "

@@ -7,116 +7,18 @@ whisker.sim.run (the run folder) and the CLI.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from whisker.sim.effects import Plan, levels_at, levels_table, plan as make_plan, pose_at, poses_table
-from whisker.sim.kinematics import (WhiskerBody, energy_J, gravity_torque, magnetic_torque,
-                                    marker_positions_mm, static_equilibrium, step_free,
-                                    tip_positions_mm, whisker_body)
+from whisker.sim.drive import Drive
+from whisker.sim.effects import plan as make_plan
+from whisker.sim.graph import Plan
+from whisker.sim.kinematics import (WhiskerBody, energy_J, gravity_torque, marker_positions_mm,
+                                    static_equilibrium, step_free, tip_positions_mm, whisker_body)
+from whisker.sim.mj import MjScene
+from whisker.sim.result import Result, SimulationError, check_finite  # noqa: F401 (public here)
 from whisker.sim.scene import Scene, SceneError
-
-
-class SimulationError(RuntimeError):
-    """The run became non-physical (NaN, energy blow-up); one line saying what and when."""
-
-
-@dataclass
-class Result:
-    plan: Plan
-    t_s: np.ndarray                     # (T,)
-    theta_rad: np.ndarray               # (T, N, 2): radial (+ retract), tangential
-    tips_mm: np.ndarray                 # (T, N, 3) sensor frame
-    markers_mm: np.ndarray              # (T, N, 3) sensor frame
-    energy_J: np.ndarray                # (T,) whiskers' mechanical energy
-    levels: np.ndarray                  # (T, N)
-    temperature_C: np.ndarray | None = None   # (T, N) when heating is built
-    objects_mm: np.ndarray | None = None      # (T, M, 3) world positions of the objects
-    object_names: list[str] = field(default_factory=list)
-    sensor_pose: np.ndarray | None = None     # (T, 4) x, y, tip height, yaw
-    contacts: np.ndarray | None = None        # (T,) number of active contacts
-    steps: int = 0
-    info: dict = field(default_factory=dict)
-
-    @property
-    def theta_deg(self) -> np.ndarray:
-        return np.degrees(self.theta_rad)
-
-
-def _check_finite(name: str, arr, t: float) -> None:
-    if not np.all(np.isfinite(arr)):
-        raise SimulationError(f"{name} became non-finite at t = {t:.4g} s (time step too large or a "
-                              f"broken parameter); try a smaller scene.timestep")
-
-
-class Drive:
-    """Currents of the coils from levels, the coil torque, and the coil heating when built.
-
-    Currents are recomputed only when the levels or the temperatures change; the magnetics model
-    is sampled once on `fidelity.magnetics_lookup` gaps over the reachable range and interpolated
-    (0 = call whisker.magnetics every time); temperatures advance every `fidelity.heating_interval`.
-    """
-
-    def __init__(self, scene: Scene, design, plan: Plan, body: WhiskerBody | None = None):
-        self.scene, self.design = scene, design
-        from whisker.sim.contract import full_scale_voltage
-        self.volts = full_scale_voltage(design) if plan.built("magnetics") else 0.0   # V at level 1
-        self.on = plan.built("magnetics")
-        self.heating = plan.built("heating")
-        n = design.whiskers.count
-        self.thermal = None
-        if self.heating:
-            from whisker.sim.contract import coil_thermal
-            self.thermal = coil_thermal(design)
-            self.T = np.full(n, float(self.thermal.ambient_C))
-        else:
-            self.T = np.full(n, 20.0)
-        self.model = scene.fidelity.magnetics
-        self._key = None
-        self._I = np.zeros(n)
-        self._I_rms = np.zeros(n)                  # the heating current of the same levels
-        self._heat_acc = 0.0
-        self._lut = None
-        if self.on and body is not None and scene.fidelity.magnetics_lookup > 0:
-            from whisker.sim.contract import force_per_ampere_N
-            s = math.sin(body.stop_rad) * body.lever_m * 1e3
-            g = np.linspace(max(body.gap0_mm - s, 1e-3), body.gap0_mm + s, scene.fidelity.magnetics_lookup)
-            self._lut = (g, force_per_ampere_N(design, g, model=self.model))
-
-    def currents(self, levels: np.ndarray) -> np.ndarray:
-        """Mean coil currents (A) of `levels`, which set the force; their PWM RMS currents, which set the
-        heat (whisker.sim.contract.pwm_rms_current_A), are kept for :meth:`heat`."""
-        from whisker.sim.contract import current_A, pwm_rms_current_A
-        if not self.on:
-            return np.zeros_like(levels)
-        key = levels.tobytes()
-        if key != self._key:
-            self._I = np.asarray(current_A(self.design, levels * self.volts, self.T), dtype=float)
-            self._I_rms = pwm_rms_current_A(self._I, levels)
-            self._key = key
-        return self._I
-
-    def heat(self, dt: float) -> None:
-        """Advance the coil temperatures by `dt` s with the levels of the last :meth:`currents` call."""
-        if self.thermal is None:
-            return
-        self._heat_acc += dt
-        if self._heat_acc >= self.scene.fidelity.heating_interval - 1e-12:
-            self.T = np.array([self.thermal.step(float(T), float(i), self._heat_acc)
-                               for T, i in zip(self.T, self._I_rms)])
-            self._heat_acc = 0.0
-            self._key = None                       # resistance changed: recompute currents
-            _check_finite("coil temperature", self.T, 0.0)
-
-    def torque(self, body: WhiskerBody, theta_r, I) -> np.ndarray:
-        if not self.on or not np.any(I):
-            return np.zeros_like(theta_r)
-        if self._lut is None:
-            return magnetic_torque(self.design, body, theta_r, I, self.model)
-        gap = body.gap0_mm - body.lever_m * 1e3 * np.sin(theta_r)
-        k = np.interp(gap, *self._lut)
-        return I * k * body.lever_m * np.cos(theta_r)
+from whisker.sim.timeline import levels_at, levels_table, poses_table
 
 
 def simulate(scene: Scene, design=None, plan: Plan | None = None, progress=None,
@@ -136,8 +38,7 @@ def simulate(scene: Scene, design=None, plan: Plan | None = None, progress=None,
         return _static(scene, design, plan, body)
     if plan.solver == "free":
         return _free(scene, design, plan, body, progress, record_hz)
-    from whisker.sim.mj import run_mujoco
-    return run_mujoco(scene, design, plan, body, progress, record_hz)
+    return _mujoco(scene, design, plan, body, progress, record_hz)
 
 
 def _static(scene, design, plan, body) -> Result:
@@ -195,7 +96,7 @@ def _free(scene, design, plan, body, progress, record_hz) -> Result:
             wind.step(dt)
         theta, omega = step_free(body, theta, omega, tau, dt, method)
         drive.heat(dt)
-        _check_finite("whisker tilt", theta, t)
+        check_finite("whisker tilt", theta, t)
     res = _pack(plan, design, body, scene, np.array(rec_t), np.array(rec_th), np.array(rec_om),
                 np.array(rec_lv), steps=steps)
     if drive.heating:
@@ -205,8 +106,65 @@ def _free(scene, design, plan, body, progress, record_hz) -> Result:
 
 def _pack(plan, design, body, scene, t, theta, omega, levels, steps) -> Result:
     e = energy_J(body, theta, omega, scene.sensor.facing).sum(axis=-1)   # (T,) all whiskers
-    _check_finite("energy", e, float(t[-1]) if len(t) else 0.0)
+    check_finite("energy", e, float(t[-1]) if len(t) else 0.0)
     poses = poses_table(scene, t)
     return Result(plan=plan, t_s=t, theta_rad=theta, tips_mm=tip_positions_mm(design, theta),
                   markers_mm=marker_positions_mm(design, theta), energy_J=e, levels=levels,
                   sensor_pose=poses, steps=steps)
+
+
+def _mujoco(scene, design, plan, body, progress, record_hz):
+    dt = scene.scene.timestep
+    duration = scene.scene.duration
+    if duration <= 0:
+        raise SceneError("scene.duration must be > 0 s for a contact scene")
+    if dt * body.omega_n > 0.5:
+        raise SceneError(f"scene.timestep {dt:g} s is too large for the whisker spring in MuJoCo "
+                         f"(dt x omega_n = {dt * body.omega_n:.2g} > 0.5); use <= {0.5 / body.omega_n:.2g} s")
+    sim = MjScene(scene, design, plan, body)
+    steps = int(math.ceil(duration / dt - 1e-9))
+    every = max(1, int(round(1.0 / (record_hz * dt))))
+    chunk = max(1, min(scene.contact.chunk, every))
+    times = np.arange(steps + 1) * dt
+    arm = sim.arm_table(times)
+    levels = levels_table(scene, design.whiskers.count, times)
+    # chunk boundaries: every `chunk` steps, at every recording, at every waypoint and level change
+    cuts = set(range(0, steps + 1, chunk)) | set(range(0, steps + 1, every)) | {steps}
+    for w in scene.sensor.path:
+        cuts.add(min(steps, int(round(w[0] / dt))))
+    for ev in scene.actuation.schedule:
+        cuts.add(min(steps, int(math.ceil(ev.t / dt - 1e-9))))
+    cuts = sorted(cuts)
+    rec = {"t": [], "th": [], "om": [], "lv": [], "obj": [], "E": [], "nc": [], "T": []}
+    for a, b in zip(cuts, cuts[1:] + [None]):
+        if a % every == 0 or a == steps:
+            th = sim.theta()
+            if not (np.all(np.isfinite(th)) and np.all(np.isfinite(sim.data.qvel))):
+                raise SimulationError(f"MuJoCo state became non-finite at t = {sim.t:.4g} s; use a smaller "
+                                      "scene.timestep or a softer contact")
+            rec["t"].append(a * dt); rec["th"].append(th); rec["om"].append(sim.omega()); rec["lv"].append(levels[a])
+            rec["obj"].append(sim.objects_mm()); rec["nc"].append(sim.data.ncon); rec["T"].append(sim.drive.T.copy())
+            rec["E"].append(float(sim.data.energy.sum()))
+            if progress and a % (every * 50) == 0:
+                progress(a / steps)
+        if b is None:
+            break
+        sim.advance(levels[a], arm[a], arm[b], b - a)
+        sim.t = b * dt
+    theta = np.array(rec["th"])
+    omega = np.array(rec["om"])
+    # MuJoCo's joint limit is a soft constraint: a rigid path pushing a whisker against a held object
+    # can drive it past the stop. The mount's stop is hard: report the excess and clamp the reading.
+    over = float(np.degrees(max(0.0, np.abs(theta).max() - body.stop_rad))) if theta.size else 0.0
+    theta = np.clip(theta, -body.stop_rad, body.stop_rad)
+    e_wh = energy_J(body, theta, omega, scene.sensor.facing).sum(axis=-1)
+    res = Result(plan=plan, t_s=np.array(rec["t"]), theta_rad=theta, tips_mm=tip_positions_mm(design, theta),
+                 markers_mm=marker_positions_mm(design, theta), energy_J=e_wh, levels=np.array(rec["lv"]),
+                 objects_mm=np.array(rec["obj"]), object_names=[o.name for o in scene.objects],
+                 sensor_pose=poses_table(scene, np.array(rec["t"])), contacts=np.array(rec["nc"]),
+                 steps=steps, info={"mujoco_energy_J": rec["E"][-1], "mujoco_energy_max_J": max(rec["E"]),
+                       "mujoco_energy_start_J": rec["E"][0],
+                       "stop_violation_max_deg": over})
+    if sim.drive.heating:
+        res.temperature_C = np.array(rec["T"])
+    return res
