@@ -183,14 +183,26 @@ def crowding_bound_radius(d: "Design", count: int | None = None) -> float:
 
 def coil_turns(d: "Design", auto: frozenset = frozenset()) -> int:
     """As many turns as fit the bobbin's winding window (whisker.former) at winding.fill_factor."""
-    from whisker.coil import winding
-    return winding(d).max_turns_at_fill
+    from whisker.coil import CoilError, winding
+    from whisker.design import DesignError
+    from whisker.former import window
+    a1, a2, _ = window(d)
+    if a2 <= a1:
+        raise DesignError(f"coil.inner_diameter ({2 * a1:g} mm) must be smaller than coil.outer_diameter less "
+                          f"2 x bobbin.rim_margin ({2 * a2:g} mm): the bobbin has no winding window")
+    try:
+        return winding(d).max_turns_at_fill
+    except CoilError:  # the wire is thicker than the window: the design model refuses it, naming the wire
+        return 1
 
 
 def coil_resistance(d: "Design", auto: frozenset = frozenset()) -> float:
     """The 20 C resistance of coil.turns of the wire wound on the bobbin (whisker.coil.winding)."""
-    from whisker.coil import winding
-    return round(winding(d).resistance_ohm, 4)
+    from whisker.coil import CoilError, winding
+    try:
+        return round(winding(d).resistance_ohm, 4)
+    except CoilError:  # as in coil_turns: refused by the design model
+        return 1.0
 
 
 # ---- the rules --------------------------------------------------------------------------------
