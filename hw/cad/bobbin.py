@@ -1,17 +1,13 @@
 """Coil former (bobbin), printed on a resin (MSLA) printer: 0.05 mm pixels and layers, walls down to
 ``bobbin.min_wall`` (0.3 mm). An FDM printer with a 0.4 mm nozzle cannot print its 1 mm core.
 
-Whisker 0 in sensor coordinates (mm); the coil's axis is radial (x), at ``design.coil_axis_z``:
-- the *tab*: a block centred on the rod (x = ring radius), ``bobbin.tab`` thick along x, as wide as
-  the coil, from the coil's lower face up to ``tab_top``; the rod sits in a blind socket in it and
-  ends above the winding's axis, outside the winding; two lead holes beside the socket take the
-  coil's leads up along the rod (the strain relief); its lower face is the marker face the camera
-  sees (the red dot goes there);
-- the *core*: ``coil.inner_diameter``, ``coil.length`` long, outboard of the tab, with a bore on the
-  coil axis (for a 0.3 mm pin, or just to save resin);
-- the *outer flange*: ``bobbin.flange`` thick, ``coil.outer_diameter`` across.
-The winding fills the window between tab and flange up to ``bobbin.rim_margin`` under the rim; the
-turns that fit, their resistance and wire length come from whisker.coil.winding on that window.
+The layout (whisker 0, sensor coordinates, mm) is whisker.former's: the *tab* centred on the rod,
+the rod in a blind socket in it, outside the winding, and two lead holes beside the socket through
+which the leads run down to the tab's lower face, glued there (the strain relief; whisker.leads);
+the tab's lower face is the marker face the camera sees (the red dot goes there); the *core* with a
+bore on the coil axis (for a 0.3 mm pin, or just to save resin); the *outer flange*. The winding
+fills the window between tab and flange up to ``bobbin.rim_margin`` under the rim; the turns that
+fit, their resistance and wire length come from whisker.coil.winding on that window.
 """
 
 from __future__ import annotations
