@@ -106,7 +106,7 @@ class Magnet(_Section):
 
 
 class Actuation(_Section):
-    gap: float = Field(gt=0, le=50, description="mm between coil face and magnet face at rest")
+    gap: float = Field(gt=0, le=50, description="mm between the winding's outer face and the magnet face at rest")
     voltage: float = Field(gt=0, le=50, description="V at the coil for grasping")
 
 

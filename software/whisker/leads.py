@@ -28,6 +28,25 @@ ENTRY_INSIDE_MM = 1.0
 SWING_SAMPLES = 7
 
 
+def open_radius(d, z: float) -> float:
+    """Radius (mm) within which the mount is open at height z below the coil cavity, in every
+    direction: the outline that whisker.cad.mount.cavity_profile revolves - the lens opening (straight
+    up to the optical centre when that lies below the cavity), then the cone out to the cavity's
+    radius - and, below the lens holder pocket's top, that square pocket's inscribed half-width."""
+    lv = sizing.mount_levels(d)
+    r_lens, z_top = sizing.lens_radius(d), lv["cylinder_bottom"]
+    outline = [(sizing.holder_top_z(d), r_lens)]
+    if sizing.lens_top_z(d) < z_top:
+        outline.append((sizing.lens_top_z(d), r_lens))
+    outline.append((z_top, d.cavity_radius))
+    zs, rs = zip(*outline)
+    r = float(np.interp(z, zs, rs))
+    if z < sizing.holder_top_z(d):  # in the lens holder's square pocket: its inscribed half-width
+        from whisker.camera_boards import placement, profile
+        r = min(r, min(placement(profile(d.camera.board), 270.0).holder_size) / 2 + d.print.clearance)
+    return r
+
+
 def exit_of(d, i: int) -> float:
     """Angle (deg) of the cable exit nearest whisker i."""
     a = d.whisker_angles_deg[i]
@@ -51,7 +70,7 @@ def path(d, i: int, side: int, tilt_deg: float = 0.0) -> np.ndarray:
     e = math.radians(exit_of(d, i))
     # the two leads side by side in the exit, a quarter of its diameter either side of its axis
     off = side * d.mount.cable_exit_diameter / 4
-    radii = (sizing.cone_radius_at(d, z) - ENTRY_INSIDE_MM, d.mount.outer_radius + 1.0)
+    radii = (open_radius(d, z) - ENTRY_INSIDE_MM, d.mount.outer_radius + 1.0)
     fixed = np.array([[r * math.cos(e) - off * math.sin(e), r * math.sin(e) + off * math.cos(e), z] for r in radii])
     return np.vstack([body, fixed])
 
@@ -87,7 +106,7 @@ def length_report(d) -> dict:
     slack = max(max(r["extended_mm"], r["retracted_mm"], r["rest_mm"]) - min(r["extended_mm"], r["retracted_mm"], r["rest_mm"])
                 for r in rows)
     f = former.layout(d)
-    through_wall = d.mount.outer_radius + 1.0 - (sizing.cone_radius_at(d, sizing.mount_levels(d)["cable"]) - ENTRY_INSIDE_MM)
+    through_wall = d.mount.outer_radius + 1.0 - (open_radius(d, sizing.mount_levels(d)["cable"]) - ENTRY_INSIDE_MM)
     fixed = (f.tab_top - f.tab_bottom) + STUB_MM + 2 * d.coil.outer_diameter  # through the tab, off the winding
     need = fixed + longest + through_wall
     return {"longest_free_mm": longest, "swing_slack_mm": slack, "needed_to_outside_mm": need,
