@@ -11,7 +11,9 @@ at the tips, when every whisker retracts past ``leads.tips_meet_deg``: the grasp
 follows the rod); a winding and its own bobbin (wound on its core: coincident faces, measured
 exactly with OpenCascade at rest instead, since the two never move apart); lead against lead (wires
 may touch); the leads' few millimetres from the winding over the tab's top (they lie on the
-bobbin). Units: mm.
+bobbin); the camera board and lens holder (far below the coils; on the smallest rings, e.g. 2 @ 4 mm,
+the cable exits' height reaches the lens holder's pocket, a limit of the mount's layout that no check
+covers yet). Units: mm.
 """
 
 from __future__ import annotations
