@@ -10,6 +10,9 @@
                            ``truncated`` attribute then says so.
 * an image folder / file  the images in name order (png, jpg, jpeg, bmp, tif, tiff). An unreadable
                            file yields a Frame with ``image=None``: the tracker flags that frame.
+                           Frame times are index / fps, or, when the folder holds ``times.csv``
+                           (columns ``file,time_s``), each image's recorded time, so a replay
+                           keeps the gaps of dropped frames.
 * ``"synthetic[:N]"``     N rendered frames (default 100) from `whisker.render` with a known marker
                            path (``.truth[i]`` = marker pixels of frame i), for tests and demos.
 
@@ -116,19 +119,40 @@ class FolderSource(FrameSource):
                 raise SourceError(f"image folder {path} holds no {'/'.join(IMAGE_SUFFIXES)} files")
         else:
             self.files = [path]
+        self.times = self._times(path / "times.csv") if path.is_dir() else None
+
+    def _times(self, csv_path: Path):
+        """Recorded frame times (s) per image from times.csv, or None when there is no such file."""
+        import csv
+
+        if not csv_path.is_file():
+            return None
+        try:
+            with open(csv_path, newline="") as fh:
+                rows = {r["file"]: float(r["time_s"]) for r in csv.DictReader(fh)}
+        except (KeyError, ValueError, TypeError, UnicodeDecodeError, csv.Error) as err:
+            raise SourceError(f"{csv_path}: needs the columns file,time_s with one number per image ({err})") from None
+        missing = [f.name for f in self.files if f.name not in rows]
+        if missing:
+            raise SourceError(f"{csv_path}: no time for {missing[0]} ({len(missing)} image(s) without one)")
+        times = [rows[f.name] for f in self.files]
+        if not all(math.isfinite(t) for t in times) or any(b <= a for a, b in zip(times, times[1:])):
+            raise SourceError(f"{csv_path}: the times must be finite and increase in the images' name order")
+        return times
 
     def __iter__(self):
         import cv2
 
         for i, f in enumerate(self.files):
             img = cv2.imread(str(f), cv2.IMREAD_COLOR)
-            yield Frame(i, i / self.fps, img)
+            yield Frame(i, self.times[i] if self.times else i / self.fps, img)
 
 
 class PicameraSource(FrameSource):
     """Raspberry Pi camera via Picamera2 (optional dependency)."""
 
-    def __init__(self, width: int = 640, height: int = 480):
+    def __init__(self, width: int = 640, height: int = 480, fps: float | None = None):
+        """fps: ask the sensor for this frame rate (Picamera2's FrameRate control), or its default."""
         try:
             from picamera2 import Picamera2
         except ImportError:
@@ -137,7 +161,11 @@ class PicameraSource(FrameSource):
         self.name = "picamera"
         try:
             self.cam = Picamera2()
-            self.cam.configure(self.cam.create_video_configuration(main={"size": (width, height), "format": "RGB888"}))
+            controls = {"FrameRate": float(fps)} if fps else {}
+            self.cam.configure(self.cam.create_video_configuration(main={"size": (width, height), "format": "RGB888"},
+                                                                   controls=controls))
+            if fps:
+                self.fps = float(fps)
             self.cam.start()
         except Exception as err:
             raise SourceError(f"cannot start the Raspberry Pi camera: {err}") from None

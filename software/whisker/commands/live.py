@@ -47,14 +47,17 @@ def open_live_source(source: str, design, fps: float, max_frames):
 def cli(design, source, fps, method, track_method, rest_frames, record, show, max_frames, calibration, mask, quiet):
     """Track the markers and label every whisker rest / contact / dynamic, live.
 
-    Writes one JSON line per frame on stdout ({"frame", "t", "states", "dx", "dy", "valid", "ms"}),
-    for other programs to read; --record writes the annotated video, --show opens a window.
+    Writes one JSON line per frame on stdout ({"frame", "t", "states", "dx", "dy", "valid", "force_mN",
+    "direction_deg", "ms"}: px; the tip force from the deflection and the membrane stiffness, mN, and
+    its direction, deg CCW from the sensor's +x; docs/states.md), for other programs to read;
+    --record writes the annotated video (state labels, displacement and force arrows), --show opens a window.
     Stop with Ctrl-C (or q in the window)."""
     import itertools
 
     import numpy as np
 
     from whisker.camera import SourceError
+    from whisker.contact_force import ForceModel
     from whisker.live import LivePipeline, annotate
     from whisker.states import make_estimator
     from whisker.tracking import CalibrationError, Tracker
@@ -76,7 +79,7 @@ def cli(design, source, fps, method, track_method, rest_frames, record, show, ma
         if not rest:
             fail("live: no frames from the source for the rest baseline")
         tracker.calibrate(rest)
-        pipe = LivePipeline(tracker, make_estimator(method, tracker.n))
+        pipe = LivePipeline(tracker, make_estimator(method, tracker.n), force_model=ForceModel.from_design(design))
         stream = frames if max_frames is None else itertools.islice(frames, max_frames)
         for frame in stream:
             live = pipe.step(frame)
