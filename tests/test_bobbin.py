@@ -71,12 +71,20 @@ def test_lead_holes_beside_the_rod_and_marker_face_below(d, mesh):
 
 
 def test_turns_are_what_fits_the_window(d):
+    """coil.turns = "auto": the turns that fit the former's window (whisker.former) at the fill
+    factor, and the resistance is theirs: one source for the force model, the driver and the BOM."""
+    from whisker import former
+
     w = bobbin.winding(d)
-    calc = coil_calc.winding(bobbin.winding_design(d))
-    assert w["turns"] == calc.max_turns_at_fill and 0 < w["turns"] < d.coil.turns
-    assert w["design_turns_fit"] is False                       # the paper's 600 do not fit (issue 21)
+    a1, a2, length = former.window(d)
+    a_cu = math.pi * d.coil.wire_diameter ** 2 / 4
+    assert w["turns"] == d.coil.turns == w["max_turns"] == math.floor(d.winding.fill_factor * (a2 - a1) * length / a_cu)
+    assert w["design_turns_fit"] is True
+    assert d.coil.resistance == pytest.approx(w["resistance_ohm"], abs=1e-4)
     assert w["resistance_ohm"] == pytest.approx(
         coil_calc.ohm_per_m(d.coil.wire_diameter) * w["wire_length_mm"] / 1000, rel=1e-9)
+    paper = bobbin.winding(default_design("coil.turns=600"))
+    assert paper["design_turns_fit"] is False                     # the paper's 600 do not fit (issue 21)
 
 
 def test_bobbin_walls_for_resin(d, mesh):
@@ -120,14 +128,21 @@ def test_bom_orders_the_wire_the_bobbin_takes_and_every_printed_part(d):
 
 
 def test_wound_coil_is_bobbin_and_full_annulus_with_the_rod_outside(d):
+    """The winding's cross-section, measured on its solid, is a full annulus - core to the turns'
+    build - all along its length; the rod stays outside it, in the tab."""
     from whisker.cad import reference
 
     L = bobbin.layout(d)
-    coil = reference.wound_coil(d)
-    mesh = to_mesh(coil, 0.01, 0.2)
-    for x in np.linspace(L["core"][0] + 0.2, L["core"][1] - 0.2, 5):  # a full annulus along the winding
+    wound = coil_calc.winding(d).wound_outer_diameter_mm
+    mesh = to_mesh(reference.winding(d), 0.005, 0.1)
+    for x in np.linspace(L["core"][0] + 0.05, L["core"][1] - 0.05, 7):
         polys = _x_section(mesh, x)
-        assert len(polys) == 1
-        assert 2 * math.sqrt(polys[0].exterior.convex_hull.area / math.pi) == pytest.approx(
-            d.coil.outer_diameter - 2 * L["settings"].rim_margin, abs=0.02)
-    assert reference.rod(d).intersect(bobbin.winding_envelope(d)).Volume() < 1e-6
+        assert len(polys) == 1 and len(polys[0].interiors) == 1
+        outer = 2 * math.sqrt(Polygon(polys[0].exterior).area / math.pi)
+        inner = 2 * math.sqrt(Polygon(polys[0].interiors[0]).area / math.pi)
+        assert outer == pytest.approx(min(wound, L["winding_od"]), abs=0.01)
+        assert inner == pytest.approx(d.coil.inner_diameter, abs=0.01)
+        assert Point(0, 0).distance(polys[0].exterior) > 0  # concentric: the ring goes all the way round
+    coil = reference.coil(d)
+    assert coil.Volume() == pytest.approx(bobbin.bobbin(d).Volume() + reference.winding(d).Volume(), rel=1e-3)
+    assert reference.rod(d).intersect(reference.winding(d)).Volume() < 1e-6

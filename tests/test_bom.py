@@ -71,11 +71,11 @@ def test_quantities_follow_the_whisker_count(boms):
     assert boms[6]["jumpers"].value == 2 * 6 + 1 + 2
     assert boms[8]["jumpers"].value == 2 * 8 + 1 + 2
     assert boms[12]["jumpers"].value == 2 * 12 + 1 + 2 + 4 * 2
-    # Supply current scales with N: N x 0.460 A (7.5 V - the L298's drop, into 5.1 ohm series + 7 ohm coil)
-    # + 0.106 A per module; one series resistor per coil.
-    assert "7.5 V regulated, at least 4 A" in boms[6]["coil_supply"].specification   # 3.08 A
-    assert "7.5 V regulated, at least 5 A" in boms[8]["coil_supply"].specification   # 4.11 A
-    assert "at least 7 A" in boms[12]["coil_supply"].specification                   # 6.16 A
+    # Supply current scales with N: N x 0.56 A (7.5 V - the L298's drop, into the series resistor + the
+    # 5.87 ohm coil) + 0.106 A per module; one series resistor per coil.
+    assert "7.5 V regulated, at least 4 A" in boms[6]["coil_supply"].specification   # 3.67 A
+    assert "7.5 V regulated, at least 5 A" in boms[8]["coil_supply"].specification   # 4.89 A
+    assert "at least 8 A" in boms[12]["coil_supply"].specification                   # 7.34 A
     assert all(boms[n]["series_resistor"].value == n for n in boms)
 
 

@@ -54,11 +54,11 @@ def test_simulated_stiffness_is_recovered_within_5_percent(k_true):
 
 
 def test_rest_gap_is_identified_from_both_polarities():
-    device = _device(mechanics__rotational_stiffness=1.6, actuation__gap=2.2)
+    device = _device(mechanics__rotational_stiffness=1.2, actuation__gap=2.2)
     volts, tilts = _tracked_tilts(device)
     res = fit(D, volts, tilts)
     assert res["gap_identified"] and res["gap_mm"] == pytest.approx(2.2, abs=0.05), res
-    assert res["rotational_stiffness_Nmm_per_rad"] == pytest.approx(1.6, rel=0.05)
+    assert res["rotational_stiffness_Nmm_per_rad"] == pytest.approx(1.2, rel=0.05)
     # the fitted curve passes through the measured means
     model = curve_deg(D, res["rotational_stiffness_Nmm_per_rad"], res["gap_mm"], volts)
     assert np.max(np.abs(model - tilts.mean(axis=1))) < 0.2

@@ -66,22 +66,23 @@ def test_plan_at_5V_and_12V():
     # a series resistor from a higher supply holds the current (force) better than direct drive
     assert abs(ser["force_change_hot_pct"]) < abs(direct["force_change_hot_pct"])
     pwm = next(p for p in p12["plans"] if p["method"] == "pwm")
-    assert pwm["current_cold_A"] == pytest.approx(3.0 / 7.0)
+    assert pwm["current_cold_A"] == pytest.approx(3.0 / D.coil.resistance)
     assert pwm["coil_heat_W"] > 2.5 * ser["coil_heat_W"]   # RMS heating at duty ~1/3
     low = DR.plan(D, supply_V=4.0)
     assert any("needed" in w for w in low["warnings"])
 
 
 def test_plan_at_the_default_7V5_supply():
-    """The default 7.5 V supply: 5.24 V at the coil fully on, so the paper's 3 V is PWM duty 0.573 and
-    the coil heats 1/0.573 = 1.75x a steady 3 V (the price of the L298's 5.8 V minimum supply)."""
+    """The default 7.5 V supply: 5.10 V at the 5.87 ohm coil fully on, so the paper's 3 V is PWM duty
+    0.588 and the coil heats 1/0.588 = 1.7x a steady 3 V (the price of the L298's 5.8 V minimum supply)."""
     p = DR.plan(D)
+    rc = D.coil.resistance
     assert p["supply_V"] == 7.5 and p["warnings"] == []
-    assert p["coil_V_full_on"] == pytest.approx(5.24, abs=0.01)
+    assert p["coil_V_full_on"] == pytest.approx(5.10, abs=0.01)
     pwm = next(x for x in p["plans"] if x["method"] == "pwm")
     duty = 3.0 / p["coil_V_full_on"]
-    assert f"PWM duty {duty:.3f}" in pwm["detail"] and pwm["detail"].startswith("PWM duty 0.573")
-    assert pwm["coil_heat_W"] == pytest.approx((3.0 / 7.0) ** 2 * 7.0 / duty, rel=1e-3)
+    assert f"PWM duty {duty:.3f}" in pwm["detail"] and pwm["detail"].startswith("PWM duty 0.588")
+    assert pwm["coil_heat_W"] == pytest.approx((3.0 / rc) ** 2 * rc / duty, rel=1e-3)
 
 
 def test_compare_drivers_mosfets_drop_less():
@@ -94,11 +95,13 @@ def test_cli_report_json_and_files(tmp_path):
     res = run_cli("coil", "report", "--json", "--out", str(tmp_path))
     assert res.returncode == 0, res.stderr
     rep = json.loads(res.stdout, parse_constant=lambda c: (_ for _ in ()).throw(AssertionError(c)))
-    assert rep["winding"]["fits"] is False and rep["winding"]["turns"] == 600
+    assert rep["winding"]["fits"] is True and rep["winding"]["turns"] == D.coil.turns == 370
     assert rep["thermal"]["limit"] == "PLA softening"
     for name in ("report.txt", "report.json", "force.png", "temperature.png"):
         assert (tmp_path / name).stat().st_size > 100
-    assert "DOES NOT FIT" in (tmp_path / "report.txt").read_text()
+    assert "DOES NOT FIT" not in (tmp_path / "report.txt").read_text()   # the default winds what fits
+    paper = run_cli("coil", "report", "--turns", "600", "--out", str(tmp_path / "paper"))
+    assert paper.returncode == 0 and "DOES NOT FIT" in (tmp_path / "paper" / "report.txt").read_text()
 
 
 def test_cli_shortcuts_and_refusals():

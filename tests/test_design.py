@@ -14,7 +14,7 @@ def test_default_is_the_papers_sensor():
     d = default_design()
     assert d.whiskers.count == 8 and d.whiskers.ring_radius == 12.0
     assert (d.whiskers.rod_diameter, d.whiskers.rod_length, d.whiskers.protrusion) == (1.0, 69.0, 63.0)
-    assert (d.membrane.sides, d.membrane.inscribed_radius, d.membrane.thickness) == (8, 16.0, 3.0)
+    assert (d.membrane.sides, d.membrane.inscribed_radius, d.membrane.thickness) == (8, 19.5, 3.0)  # the paper's 16 mm: docs/coil.md
     assert (d.coil.outer_diameter, d.coil.length) == (4.0, 4.0)
     assert (d.magnet.diameter, d.magnet.height) == (4.76, 1.59)
 

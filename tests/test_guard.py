@@ -273,7 +273,7 @@ def test_default_supply_limits_level_and_reaches_the_papers_3V():
     """Without the series resistor (driver.series_resistance = 0): 7.5 V into an L298N: 5.24 V at the coil at level 1, so level 1 is refused, the paper's 3 V is a
     level below 1 and the rating's 3.3 V is the largest level (whisker.driver typ drop 1.40 V +
     1.15 ohm x I: I = (7.5 - 1.40) / (7 + 1.15) = 0.748 A, 0.748 A x 7 ohm = 5.24 V)."""
-    design = default_design(NO_RESISTOR)
+    design = default_design("coil.resistance=7.0", NO_RESISTOR)  # the paper's measured coil
     vfs = full_scale_voltage(design)
     assert vfs == pytest.approx((7.5 - 1.40) / (7.0 + 1.15) * 7.0, rel=1e-9)
     assert vfs > design.drive.max_coil_voltage
@@ -288,7 +288,8 @@ def test_default_supply_limits_level_and_reaches_the_papers_3V():
     with pytest.raises(RatingError, match="whisker 0 means"):
         check_levels(design, np.full(8, top + 1e-6))
     # the old 5 V default reached 3 V only near full duty (level 0.97)
-    assert float(volts_to_levels(default_design("driver.supply_voltage=5", NO_RESISTOR), 3.0)) == pytest.approx(0.970, abs=1e-3)
+    assert float(volts_to_levels(default_design("coil.resistance=7.0", "driver.supply_voltage=5", NO_RESISTOR), 3.0)) \
+        == pytest.approx(0.970, abs=1e-3)
 
 
 @settings(max_examples=40, deadline=None)
@@ -296,7 +297,7 @@ def test_default_supply_limits_level_and_reaches_the_papers_3V():
 def test_volts_to_levels_round_trips_at_any_supply(vs, volts):
     """level = volts / V_fs with V_fs = R (Vs - V0) / (R + r) from the L298N model; within the rating
     and the full scale the round trip is exact, above either it is refused, never clipped."""
-    d = default_design(f"driver.supply_voltage={vs!r}", NO_RESISTOR)
+    d = default_design("coil.resistance=7.0", f"driver.supply_voltage={vs!r}", NO_RESISTOR)
     vfs = full_scale_voltage(d)
     assert vfs == pytest.approx(7.0 * (vs - 1.40) / (7.0 + 1.15), rel=1e-9)
     assert max_level(d) == pytest.approx(min(1.0, 3.3 / vfs))

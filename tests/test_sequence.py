@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import pytest
 
@@ -18,15 +19,21 @@ def test_default_design_goes_together(variant):
 
 
 def test_coils_wider_than_the_seat_opening_are_refused_naming_the_step():
-    # coil reaches 15.5 mm out; a 16 mm membrane's seat opens to 15.2 mm (membrane size fixed: its
-    # "auto" rule would widen the seat to pass the coils)
-    d = default_design("coil.length=7", "membrane.inscribed_radius=16")
-    assert d.whiskers.ring_radius + d.coil.length / 2 > d.neck_radius
+    """An 18 mm membrane's seat opens to 17.2 mm: the winding's outer face (17.0 mm from the axis,
+    17.1 at its rim) would pass, the bobbin's outer flange (17.35 mm, 17.46 at its corners) does not.
+    The membrane's size is pinned: its "auto" rule widens the seat to pass the flanges."""
+    from whisker import former
+
+    d = default_design("membrane.inscribed_radius=18")
+    f = former.layout(d)
+    winding_rim = math.hypot(f.core[1], f.winding_outer_diameter / 2)
+    flange_rim = math.hypot(f.outer_x, f.half_width)
+    assert winding_rim < d.neck_radius < flange_rim
     checks = sequence.check_sequence(d, mount.mount(d), "robot")
     failed = [c for c in checks if not c.ok]
     assert [c.name for c in failed] == ["assembly step 3: membrane with rods and coils onto the seat"]
     line = failed[0].line()
-    assert "\n" not in line and "coil" in line and "runs into the mount" in line and "coil.length" in line
+    assert "\n" not in line and "coil" in line and "runs into the mount" in line and "bobbin.flange" in line
 
 
 def test_magnets_that_cannot_pass_the_seat_opening_are_refused():

@@ -23,8 +23,9 @@ def test_limit_is_the_lowest_of_magnet_pla_enamel():
 
 
 def test_heat_capacity_is_mostly_copper_of_the_measured_resistance():
-    # 7 ohm of 0.101 mm copper is ~3.25 m, ~0.23 g (DESIGN.md section 2)
-    assert 0.22 < TH.copper_mass_g < 0.24
+    # the bobbin's 5.87 ohm of 0.101 mm copper is 2.73 m, 0.194 g (the paper's 7 ohm: ~3.25 m, ~0.23 g,
+    # DESIGN.md section 2)
+    assert 0.18 < TH.copper_mass_g < 0.21
     assert TH.copper_mass_g * 0.385 < TH.heat_capacity_J_per_K < 1.3 * TH.copper_mass_g * 0.385
 
 

@@ -1,4 +1,5 @@
-"""The sensor assembly: mount, membrane and, per whisker, rod, coil and magnet, all in place."""
+"""The sensor assembly: mount, membrane and, per whisker, rod, bobbin, winding, its two leads and
+magnet, all in place."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import cadquery as cq
 
 from whisker.design import Design
 
-from . import reference
+from . import reference, swing
 
 
 def sensor_assembly(d: Design, mount: cq.Shape, membrane: cq.Shape, tilt_deg: float = 0.0) -> cq.Assembly:
@@ -16,7 +17,11 @@ def sensor_assembly(d: Design, mount: cq.Shape, membrane: cq.Shape, tilt_deg: fl
     assy.add(membrane, name="membrane", color=cq.Color(0.6, 0.6, 0.65))
     for i, a in enumerate(d.whisker_angles_deg):
         assy.add(reference.rod(d, a, tilt_deg), name=f"rod_{i}", color=cq.Color(0.1, 0.1, 0.1))
-        assy.add(reference.coil(d, a, tilt_deg), name=f"coil_{i}", color=cq.Color(0.72, 0.45, 0.2))
+        assy.add(reference.bobbin(d, a, tilt_deg), name=f"bobbin_{i}", color=cq.Color(0.2, 0.2, 0.25))
+        assy.add(reference.winding(d, a, tilt_deg), name=f"winding_{i}", color=cq.Color(0.72, 0.45, 0.2))
+        for s in (-1, 1):
+            assy.add(swing.lead_solid(d, i, s, tilt_deg), name=f"lead_{i}{'p' if s > 0 else 'm'}",
+                     color=cq.Color(0.8, 0.1, 0.1))
         assy.add(reference.magnet(d, a), name=f"magnet_{i}", color=cq.Color(0.75, 0.75, 0.78))
     return assy
 

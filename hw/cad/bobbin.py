@@ -1,17 +1,13 @@
 """Coil former (bobbin), printed on a resin (MSLA) printer: 0.05 mm pixels and layers, walls down to
 ``bobbin.min_wall`` (0.3 mm). An FDM printer with a 0.4 mm nozzle cannot print its 1 mm core.
 
-Whisker 0 in sensor coordinates (mm); the coil's axis is radial (x), at ``design.coil_axis_z``:
-- the *tab*: a block centred on the rod (x = ring radius), ``bobbin.tab`` thick along x, as wide as
-  the coil, from the coil's lower face up to ``tab_top``; the rod sits in a blind socket in it and
-  ends above the winding's axis, outside the winding; two lead holes beside the socket take the
-  coil's leads up along the rod (the strain relief); its lower face is the marker face the camera
-  sees (the red dot goes there);
-- the *core*: ``coil.inner_diameter``, ``coil.length`` long, outboard of the tab, with a bore on the
-  coil axis (for a 0.3 mm pin, or just to save resin);
-- the *outer flange*: ``bobbin.flange`` thick, ``coil.outer_diameter`` across.
-The winding fills the window between tab and flange up to ``bobbin.rim_margin`` under the rim; the
-turns that fit, their resistance and wire length come from whisker.coil.winding on that window.
+The layout (whisker 0, sensor coordinates, mm) is whisker.former's: the *tab* centred on the rod,
+the rod in a blind socket in it, outside the winding, and two lead holes beside the socket through
+which the leads run down to the tab's lower face, glued there (the strain relief; whisker.leads);
+the tab's lower face is the marker face the camera sees (the red dot goes there); the *core* with a
+bore on the coil axis (for a 0.3 mm pin, or just to save resin); the *outer flange*. The winding
+fills the window between tab and flange up to ``bobbin.rim_margin`` under the rim; the turns that
+fit, their resistance and wire length come from whisker.coil.winding on that window.
 """
 
 from __future__ import annotations
@@ -19,23 +15,18 @@ from __future__ import annotations
 import cadquery as cq
 
 from whisker import coil as coil_calc
-from whisker.design import Design, design_from_dict
+from whisker import former
+from whisker.design import Design
 
-from . import extras
 from .shapes import cut_all, cylinder, radial_cylinder
 
 
 def layout(d: Design) -> dict:
-    b = extras.section(d, "bobbin")
-    c, R = d.coil, d.whiskers.ring_radius
-    tab0, tab1 = R - b.tab / 2, R + b.tab / 2
-    core1 = tab1 + c.length
-    tab_top = min(-d.coil.drop / 2, d.coil_axis_z + c.outer_diameter / 2 + b.socket_depth)
-    socket = d.hole(d.whiskers.rod_diameter) if d.print.clearance <= 0.1 else d.whiskers.rod_diameter + 0.2
-    return dict(settings=b, tab=(tab0, tab1), core=(tab1, core1), flange=(core1, core1 + b.flange),
-                tab_top=tab_top, tab_bottom=d.marker_z, socket_diameter=socket,
-                socket_bottom=-d.rod_below_membrane, bore=max(b.min_wall, c.inner_diameter - 2 * b.min_wall),
-                lead_y=socket / 2 + b.min_wall + b.lead_hole / 2, outer_x=core1 + b.flange)
+    """The former's layout (whisker.former.layout) as a dict, with the [bobbin] settings."""
+    f = former.layout(d)
+    return dict(settings=d.bobbin, tab=f.tab, core=f.core, flange=f.flange, tab_top=f.tab_top,
+                tab_bottom=f.tab_bottom, socket_diameter=f.socket_diameter, socket_bottom=f.socket_bottom,
+                bore=f.bore, lead_y=f.lead_y, outer_x=f.outer_x, winding_od=f.winding_outer_diameter)
 
 
 def bobbin_tools(d: Design) -> dict[str, cq.Shape]:
@@ -69,34 +60,24 @@ def bobbin(d: Design) -> cq.Shape:
 
 
 def winding_envelope(d: Design) -> cq.Shape:
-    """The wound copper as a full annulus between tab and flange (for the assembly), mm."""
+    """The wound copper as a full annulus between tab and flange (for the assembly), mm: from the
+    core out to the coil.turns' build at winding.fill_factor (whisker.coil.winding), at most the
+    window's outer diameter."""
     L = layout(d)
-    od = d.coil.outer_diameter - 2 * L["settings"].rim_margin
+    od = min(L["winding_od"], coil_calc.winding(d).wound_outer_diameter_mm)
     outer = radial_cylinder(L["core"][0], L["core"][1], od, d.coil_axis_z, 0.0)
     return outer.cut(radial_cylinder(L["core"][0] - 1, L["core"][1] + 1, d.coil.inner_diameter, d.coil_axis_z, 0.0))
 
 
-def winding_design(d: Design) -> Design:
-    """The design with [coil] describing the bobbin's window (outer diameter less the rim margin)."""
-    data = d.to_dict()
-    data["coil"]["outer_diameter"] = d.coil.outer_diameter - 2 * layout(d)["settings"].rim_margin
-    return design_from_dict(data)
-
-
 def winding(d: Design) -> dict:
-    """Turns that fit the bobbin at [winding] fill_factor and what they give (whisker.coil.winding):
-    turns, 20 C resistance (ohm), wire length (mm), and whether the design's coil.turns fit."""
-    wd = winding_design(d)
-    requested = coil_calc.winding(wd)
-    data = wd.to_dict()
-    data["coil"]["turns"] = max(1, requested.max_turns_at_fill)
-    fit = coil_calc.winding(design_from_dict(data))
-    return {"turns": fit.turns, "resistance_ohm": fit.resistance_ohm, "wire_length_mm": fit.wire_length_mm,
-            "layers": fit.layers, "design_turns": d.coil.turns, "design_turns_fit": requested.fits,
-            "window_mm2": fit.window_mm2}
+    """The design's winding on this former (whisker.coil.winding reads the former's window): turns,
+    20 C resistance (ohm), wire length (mm), layers, and whether the design's coil.turns fit."""
+    w = coil_calc.winding(d)
+    return {"turns": w.turns, "resistance_ohm": w.resistance_ohm, "wire_length_mm": w.wire_length_mm,
+            "layers": w.layers, "design_turns": d.coil.turns, "design_turns_fit": w.fits,
+            "max_turns": w.max_turns_at_fill, "window_mm2": w.window_mm2}
 
 
 def outer_face_radius(d: Design) -> float:
-    """Radius (mm) of the bobbin's outer flange face at rest: the magnet face must be
-    ``actuation.gap`` beyond it (today's cavity radius assumes a coil centred on the rod)."""
+    """Radius (mm) of the bobbin's outer flange face at rest."""
     return layout(d)["outer_x"]

@@ -359,7 +359,7 @@ def solid_checks(d: Design, mount: cq.Shape, membrane: cq.Shape) -> list[Check]:
     worst, worst_overlap, where = math.inf, 0.0, ""
     n = len(angles)
     for tilt in (-theta, 0.0, theta):
-        coils = [reference.coil(d, a, tilt) for a in angles]
+        coils = [reference.coil_envelope(d, a, tilt) for a in angles]
         pairs = [(f"coils {i} and {(i + 1) % n}", coils[i], coils[(i + 1) % n]) for i in range(n if n > 2 else n - 1)]
         pairs += [(f"coil {i} and mount", c, mount) for i, c in enumerate(coils)]
         pairs += [(f"coil {i} and magnet {j % n}", c, magnets[j % n]) for i, c in enumerate(coils)
@@ -375,6 +375,8 @@ def solid_checks(d: Design, mount: cq.Shape, membrane: cq.Shape) -> list[Check]:
                       f">= {need:g}", "mm", ("whiskers.count", "whiskers.ring_radius", "whiskers.max_deflection_deg",
                                        "coil.outer_diameter", "coil.length", "actuation.gap", "mount.flange_thickness"),
                       where))
+    from .swing import swing_check  # every solid, rods, windings and leads included, over the swing
+    out += swing_check(d, mount, membrane)
     mem_overlap = _common_volume(membrane, mount)
     out.append(_check("membrane overlaps its seat", "assembly", mem_overlap, mem_overlap < VOLUME_EPS, "0", "mm^3",
                       ("membrane.inscribed_radius", "print.clearance", "mount.outer_radius")))

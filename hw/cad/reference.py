@@ -1,4 +1,4 @@
-"""Reference parts that are bought or cast, not printed: membrane, rod, coil, magnet.
+"""Reference parts that are bought, cast or wound: membrane, rod, coil (bobbin + winding), magnet.
 
 They place the real components in the assembly and let the checks test fits and collisions.
 All functions take the design and return a CadQuery solid in sensor coordinates (mm):
@@ -40,30 +40,39 @@ def rod(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
     return _tilt(body, d, angle_deg, tilt_deg)
 
 
+def bobbin(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
+    """The coil former (whisker.cad.bobbin) of whisker `angle_deg`, tilted with its rod."""
+    from . import bobbin as former
+    return _tilt(former.bobbin(d), d, angle_deg, tilt_deg)
+
+
+def winding(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
+    """The copper on the bobbin: a full annulus between tab and flange (whisker.cad.bobbin)."""
+    from . import bobbin as former
+    return _tilt(former.winding_envelope(d), d, angle_deg, tilt_deg)
+
+
 def coil(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
-    """Disc coil with a radial axis hanging `coil.drop` below the membrane, with a socket for the rod."""
-    c, w = d.coil, d.whiskers
-    r0 = w.ring_radius - c.length / 2
-    body = radial_cylinder(r0, r0 + c.length, c.outer_diameter, d.coil_axis_z, 0.0)
-    socket = cylinder(w.rod_diameter / 2, -d.rod_below_membrane, 0.0, w.ring_radius, 0.0)
-    return _tilt(body.cut(socket), d, angle_deg, tilt_deg)
+    """The coil as it is made, one rigid piece: the bobbin and its winding, with the rod in the
+    bobbin's tab outside the winding (whisker.former)."""
+    from . import bobbin as former
+    body = former.bobbin(d).fuse(former.winding_envelope(d)).clean()
+    return _tilt(body, d, angle_deg, tilt_deg)
+
+
+def coil_envelope(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
+    """The coil's outside - bobbin tab and flanged winding, without the socket and lead holes - for
+    the clearance checks (the same outside as :func:`coil`, a simpler solid to measure distances to)."""
+    from whisker.former import layout
+
+    f = layout(d)
+    r = f.half_width
+    tab = cq.Solid.makeBox(f.tab[1] - f.tab[0], 2 * r, f.tab_top - f.tab_bottom, cq.Vector(f.tab[0], -r, f.tab_bottom))
+    body = tab.fuse(radial_cylinder(f.tab[1] - 0.01, f.outer_x, 2 * r, f.axis_z, 0.0)).clean()
+    return _tilt(body, d, angle_deg, tilt_deg)
 
 
 def magnet(d: Design, angle_deg: float = 0.0) -> cq.Shape:
     """NdFeB disc in the mount wall, its face `actuation.gap` outside the coil's outer face."""
     r = d.cavity_radius
     return radial_cylinder(r, r + d.magnet.height, d.magnet.diameter, d.coil_axis_z, angle_deg)
-
-
-def wound_coil(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
-    """The coil as it can be made: the bobbin (whisker.cad.bobbin) and its winding, a full annulus
-    between the rod tab and the flange, with the rod in the tab outside the winding.
-
-    Not yet the coil the checks use (:func:`coil`): its outer flange lies ``bobbin.tab / 2 +
-    coil.length / 2 + bobbin.flange`` farther out than the coil centred on the rod, so the magnets,
-    the cavity and the seat's opening must move out with it (whisker.sizing) before it replaces it.
-    """
-    from . import bobbin
-
-    body = bobbin.bobbin(d).fuse(bobbin.winding_envelope(d)).clean()
-    return _tilt(body, d, angle_deg, tilt_deg)

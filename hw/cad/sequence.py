@@ -87,6 +87,7 @@ PIECES: dict[str, Callable[[Design], list[tuple[str, cq.Shape]]]] = {
     "magnets": lambda d: [(f"magnet {i}", reference.magnet(d, a)) for i, a in enumerate(d.whisker_angles_deg)],
     "membrane": lambda d: [("membrane", reference.membrane(d))],
     "rods": lambda d: [(f"rod {i}", reference.rod(d, a)) for i, a in enumerate(d.whisker_angles_deg)],
+    # the coil as it is made: bobbin (tab, flanges) and winding, one rigid piece on its rod
     "coils": lambda d: [(f"coil {i}", reference.coil(d, a)) for i, a in enumerate(d.whisker_angles_deg)],
     "camera": _camera,
     "led_strip": _led_strip,
@@ -100,8 +101,8 @@ PARAMETERS = {
     "magnets": ("magnet.diameter", "magnet.height", "membrane.inscribed_radius", "mount.seat_ledge"),
     "membrane": ("membrane.inscribed_radius", "print.clearance"),
     "rods": ("whiskers.ring_radius", "whiskers.rod_diameter"),
-    "coils": ("coil.length", "coil.outer_diameter", "whiskers.ring_radius", "membrane.inscribed_radius",
-              "mount.seat_ledge"),
+    "coils": ("coil.length", "coil.outer_diameter", "bobbin.tab", "bobbin.flange", "whiskers.ring_radius",
+              "membrane.inscribed_radius", "mount.seat_ledge"),
     "camera": ("camera.board", "mount.camera_recess"),
     "led_strip": ("mount.led_strip_width", "mount.led_strip_thickness"),
     "adapter": ("adapter.preset",),

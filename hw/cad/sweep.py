@@ -67,7 +67,8 @@ def sweep(counts: Iterable[int], radii: Iterable[float], design_file: str | None
 
 
 BOUND_TEXT = ("small-ring bound: neighbouring coils at full inward swing, "
-              "2 rho sin(pi/N) - D cos(pi/N) >= c, rho = R - (L/2) cos(theta) - h sin(theta)")
+              "2 rho sin(pi/N) - D cos(pi/N) >= c, rho = R - a cos(theta) - h sin(theta) "
+              "(a = bobbin.tab / 2, h = pivot to marker plane)")
 
 
 def write_reports(rows: list[dict], out: Path) -> list[Path]:

@@ -119,8 +119,10 @@ def _build(turns: float, wire_d: float, fill: float, length: float) -> float:
 
 def winding(design) -> Winding:
     """Turns that fit, layers, wire length, resistance, mass, inductance of the design's coil."""
+    from whisker.former import window
+
     c, w = design.coil, design.winding
-    a1, a2, L = c.inner_diameter / 2.0, c.outer_diameter / 2.0, c.length
+    a1, a2, L = window(design)
     d = c.wire_diameter
     do = enamel_overall_diameter_mm(d, w.enamel_grade)
     a_cu = math.pi * d * d / 4.0
@@ -176,8 +178,10 @@ def winding(design) -> Winding:
 
 def resistance_range_vs_fill(design, fills=(0.4, 0.5, 0.55, 0.6, 0.7)) -> list[dict]:
     """Turns and 20 C resistance when the whole window is wound at each copper fill."""
-    c = design.coil
-    a1, a2, L, d = c.inner_diameter / 2.0, c.outer_diameter / 2.0, c.length, c.wire_diameter
+    from whisker.former import window
+
+    a1, a2, L = window(design)
+    d = design.coil.wire_diameter
     a_cu = math.pi * d * d / 4.0
     rows = []
     for f in fills:

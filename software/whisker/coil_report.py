@@ -83,7 +83,8 @@ def format_report(rep: dict) -> str:
     w, e, f, d, t, dr = rep["winding"], rep["electrical"], rep["force"], rep["deflection"], rep["thermal"], rep["driver"]
     L = []
     L.append("WINDING")
-    L.append(f"  {w['turns']} turns, wire overall {w['wire_overall_diameter_mm']:.3f} mm, window {w['window_mm2']:.2f} mm^2")
+    L.append(f"  {w['turns']} turns, wire overall {w['wire_overall_diameter_mm']:.3f} mm, window {w['window_mm2']:.2f} mm^2 "
+             "(the bobbin's: coil.length x (coil.outer_diameter/2 - bobbin.rim_margin - coil.inner_diameter/2))")
     L.append(f"  copper fill needed {w['fill_required']:.3f} (assumed {w['fill_factor']:.2f}, orthocyclic limit "
              f"{w['fill_limit_orthocyclic']:.3f}) -> {'FITS' if w['fits'] else 'DOES NOT FIT'}")
     L.append(f"  turns that fit: {w['max_turns_at_fill']} at fill {w['fill_factor']:.2f}, "
@@ -91,7 +92,7 @@ def format_report(rep: dict) -> str:
     L.append(f"  {w['turns_per_layer']} turns/layer, {w['layers']} layers, build {w['build_mm']:.2f} mm "
              f"(wound OD {w['wound_outer_diameter_mm']:.2f} mm)")
     L.append(f"  wire {w['wire_length_mm'] / 1000:.2f} m, {w['resistance_ohm']:.2f} ohm at 20 C predicted "
-             f"(measured {w['measured_resistance_ohm']:g}; that is {w['turns_for_measured_resistance']} turns), "
+             f"(design {w['measured_resistance_ohm']:g}; that is {w['turns_for_measured_resistance']} turns), "
              f"copper {w['copper_mass_g']:.3f} g")
     L.append("  resistance if the whole window is wound at fill: " + ", ".join(
         f"{r['fill']:.2f}: {r['turns']} t / {r['resistance_ohm']:.1f} ohm" for r in rep["resistance_vs_fill"]))

@@ -56,6 +56,8 @@ def _auto_or(lo: float, hi: float, unit: str, integer: bool = False) -> BeforeVa
 # Sizes that follow the ring by default (hw/sensor.toml says "auto"; whisker.sizing holds the rules).
 AutoMm = Annotated[Literal["auto"] | float, _auto_or(0, 1000, "mm")]
 AutoCount = Annotated[Literal["auto"] | int, _auto_or(0, 64, "", integer=True)]
+AutoTurns = Annotated[Literal["auto"] | int, _auto_or(0, 100000, "turns", integer=True)]
+AutoOhm = Annotated[Literal["auto"] | float, _auto_or(0, 1e6, "ohm")]
 # Finite physical bounds for plain sizes: a part on this printer is never a metre long.
 Mm = Annotated[float, Field(gt=0, le=1000)]
 
@@ -89,8 +91,9 @@ class Coil(_Section):
     length: float = Field(gt=0, le=50, description="mm along the (radial) coil axis")
     drop: float = Field(ge=0, le=50, description="mm from the membrane's lower face to the coil's top")
     wire_diameter: float = Field(gt=0, le=5, description="mm, bare copper")
-    turns: int = Field(ge=1, le=100000, description="turns")
-    resistance: float = Field(gt=0, le=1e6, description="ohm, measured")
+    turns: AutoTurns = Field(description="turns; auto: as many as fit the bobbin's window at winding.fill_factor")
+    resistance: AutoOhm = Field(description="ohm at 20 C; auto: the winding's (coil.turns of the wire on the "
+                                "bobbin); or your coil's measured value")
     marker_diameter: float = Field(gt=0, le=50, description="mm, red dot on the coil's lower face")
 
 
@@ -103,7 +106,7 @@ class Magnet(_Section):
 
 
 class Actuation(_Section):
-    gap: float = Field(gt=0, le=50, description="mm between coil face and magnet face at rest")
+    gap: float = Field(gt=0, le=50, description="mm between the winding's outer face and the magnet face at rest")
     voltage: float = Field(gt=0, le=50, description="V at the coil for grasping")
 
 
@@ -527,8 +530,10 @@ class Design(_Section):
 
     @property
     def cavity_radius(self) -> float:
-        """Radius of the mount's coil cavity = where the magnets' faces sit, mm."""
-        return self.whiskers.ring_radius + self.coil.length / 2.0 + self.actuation.gap
+        """Radius of the mount's coil cavity = where the magnets' faces sit: actuation.gap beyond the
+        winding's outer face on the bobbin (whisker.former), mm."""
+        from whisker.former import winding_face_offset
+        return self.whiskers.ring_radius + winding_face_offset(self) + self.actuation.gap
 
     @property
     def neck_radius(self) -> float:

@@ -123,8 +123,11 @@ class CoilMagnet:
 
 def geometry(design) -> CoilMagnet:
     """The coil-magnet pair of a :class:`whisker.design.Design`."""
+    from whisker.former import window
+
     c, m = design.coil, design.magnet
-    return CoilMagnet(c.inner_diameter / 2.0, c.outer_diameter / 2.0, c.length, float(c.turns),
+    a1, a2, length = window(design)  # the winding on the bobbin (whisker.former)
+    return CoilMagnet(a1, a2, length, float(c.turns),
                       m.diameter / 2.0, m.height, m.remanence)
 
 

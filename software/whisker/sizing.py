@@ -121,18 +121,11 @@ def cable_exit_angles(d: "Design") -> list[float]:
 # ---- how far a coil reaches over its swing ---------------------------------------------------
 
 def coil_surface_points(d: "Design", tilt_deg: float) -> np.ndarray:
-    """Points on whisker 0's coil surface (x radial, y tangential, z), tilted by tilt_deg about
-    the pivot (retraction positive: tip in, coil out), mm. The coil is a cylinder with a radial
-    axis; its end circles and lateral lines hold every extreme point a radius can reach."""
-    c, r_ring = d.coil, d.whiskers.ring_radius
-    phi = np.linspace(0, 2 * np.pi, 73)[:-1]
-    s = np.linspace(r_ring - c.length / 2, r_ring + c.length / 2, 9)
-    S, P = np.meshgrid(s, phi)
-    x, y = S.ravel(), (c.outer_diameter / 2 * np.sin(P)).ravel()
-    z = (d.coil_axis_z + c.outer_diameter / 2 * np.cos(P)).ravel()
-    b = math.radians(-tilt_deg)  # the same rotation as whisker.cad.reference._tilt
-    xr, zr = x - r_ring, z - d.pivot_z
-    return np.column_stack([r_ring + xr * math.cos(b) + zr * math.sin(b), y, d.pivot_z - xr * math.sin(b) + zr * math.cos(b)])
+    """Points on whisker 0's coil as it is made - the bobbin and its winding (whisker.former) - (x
+    radial, y tangential, z), tilted by tilt_deg about the pivot (retraction positive: tip in, coil
+    out), mm. They hold every extreme point a distance from the sensor axis can reach."""
+    from whisker.former import envelope_points
+    return envelope_points(d, tilt_deg)
 
 
 def coil_reach(d: "Design", z_min: float = -math.inf, tilts: bool = True) -> float:
@@ -149,41 +142,67 @@ def coil_reach(d: "Design", z_min: float = -math.inf, tilts: bool = True) -> flo
 
 
 def coil_inner_chord_radius(d: "Design") -> float:
-    """rho: distance from the axis of a coil's inner face corners (its axis height, tangential
-    +-D/2 plane) at full inward swing (extension, tip out, coil in), mm.
+    """rho: distance from the axis of a coil's inner corners - the bobbin tab's inner face, its lower
+    edge at +-D/2 - at full inward swing (extension, tip out, coil in), mm.
 
-    Rotating the inner face's centre (R - L/2, z_axis) by the full deflection about the pivot
-    (R, z_pivot) brings it to R - (L/2) cos(theta) - (z_pivot - z_axis) sin(theta).
+    Rotating the tab's inner lower edge (R - a, z_marker), a = bobbin.tab / 2, by the full deflection
+    about the pivot (R, z_pivot) brings it to R - a cos(theta) - (z_pivot - z_marker) sin(theta).
     """
-    c, th = d.coil, math.radians(d.whiskers.max_deflection_deg)
-    return d.whiskers.ring_radius - c.length / 2 * math.cos(th) - (d.pivot_z - d.coil_axis_z) * math.sin(th)
+    from whisker.former import inner_offset
+    th = math.radians(d.whiskers.max_deflection_deg)
+    return d.whiskers.ring_radius - inner_offset(d) * math.cos(th) - (d.pivot_z - d.marker_z) * math.sin(th)
 
 
 def crowding_bound_radius(d: "Design", count: int | None = None) -> float:
     """Smallest ring radius at which neighbouring coils clear each other at full inward swing, mm.
 
-    Neighbours sit 360/N deg apart. At full inward swing (extension) their inner corners - the
-    inner face's edges at +-D/2 either side of the coil axis - are rho from the sensor axis
-    (:func:`coil_inner_chord_radius`). The chord between two neighbours' facing corners must leave
-    the print clearance c:
+    Neighbours sit 360/N deg apart. At full inward swing (extension) their inner corners - the lower
+    edge of the bobbin tab's inner face, +-D/2 either side of the coil axis - are rho from the sensor
+    axis (:func:`coil_inner_chord_radius`). The chord between two neighbours' facing corners must
+    leave the print clearance c:
 
-        2 rho sin(pi/N) - D cos(pi/N) >= c,   rho = R - (L/2) cos(theta) - h sin(theta)
+        2 rho sin(pi/N) - D cos(pi/N) >= c,   rho = R - a cos(theta) - h sin(theta)
 
-    so R >= (c/2 + (D/2) cos(pi/N)) / sin(pi/N) + (L/2) cos(theta) + h sin(theta), with h the pivot's
-    height above the coil axis (D coil diameter, L coil length, theta the largest deflection). For
-    N = 2 the two coils face each other head on: their inner faces' lowest points must stay c apart.
+    so R >= (c/2 + (D/2) cos(pi/N)) / sin(pi/N) + a cos(theta) + h sin(theta), with a = bobbin.tab / 2
+    (rod to the tab's inner face), h the pivot's height above the marker plane (the tab's lower face),
+    D the coil diameter and theta the largest deflection. For N = 2 the two coils face each other
+    head on: their lowest inner edges must stay c apart.
     """
+    from whisker.former import inner_offset
     n = count or d.whiskers.count
-    c, th = d.coil, math.radians(d.whiskers.max_deflection_deg)
+    th = math.radians(d.whiskers.max_deflection_deg)
     clr = max(d.print.clearance, 0.05)
-    h = d.pivot_z - d.coil_axis_z
     if n <= 1:
         return 0.0
-    swing_in = c.length / 2 * math.cos(th) + h * math.sin(th)
-    if n == 2:  # the lowest point of each inner face, (R - L/2, z_axis - D/2), swung inwards
-        return clr / 2 + swing_in + c.outer_diameter / 2 * math.sin(th)
+    swing_in = inner_offset(d) * math.cos(th) + (d.pivot_z - d.marker_z) * math.sin(th)
+    if n == 2:
+        return clr / 2 + swing_in
     a = math.pi / n
-    return (clr / 2 + c.outer_diameter / 2 * math.cos(a)) / math.sin(a) + swing_in
+    return (clr / 2 + d.coil.outer_diameter / 2 * math.cos(a)) / math.sin(a) + swing_in
+
+
+def coil_turns(d: "Design", auto: frozenset = frozenset()) -> int:
+    """As many turns as fit the bobbin's winding window (whisker.former) at winding.fill_factor."""
+    from whisker.coil import CoilError, winding
+    from whisker.design import DesignError
+    from whisker.former import window
+    a1, a2, _ = window(d)
+    if a2 <= a1:
+        raise DesignError(f"coil.inner_diameter ({2 * a1:g} mm) must be smaller than coil.outer_diameter less "
+                          f"2 x bobbin.rim_margin ({2 * a2:g} mm): the bobbin has no winding window")
+    try:
+        return winding(d).max_turns_at_fill
+    except CoilError:  # the wire is thicker than the window: the design model refuses it, naming the wire
+        return 1
+
+
+def coil_resistance(d: "Design", auto: frozenset = frozenset()) -> float:
+    """The 20 C resistance of coil.turns of the wire wound on the bobbin (whisker.coil.winding)."""
+    from whisker.coil import CoilError, winding
+    try:
+        return round(winding(d).resistance_ohm, 4)
+    except CoilError:  # as in coil_turns: refused by the design model
+        return 1.0
 
 
 # ---- the rules --------------------------------------------------------------------------------
@@ -292,6 +311,8 @@ class Rule:
 
 # In order: a rule may read the values of the rules before it. Each takes (design, names set to auto).
 RULES: tuple[Rule, ...] = (
+    Rule("coil", "turns", coil_turns, 1),
+    Rule("coil", "resistance", coil_resistance, 1.0),
     Rule("membrane", "inscribed_radius", membrane_inscribed_radius, 10.0),
     Rule("camera", "distance", camera_distance, 30.0),
     Rule("mold", "pour_diameter", pour_diameter, 1.0),
