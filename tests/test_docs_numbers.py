@@ -63,6 +63,11 @@ def _pla(c: Ctx, which: str) -> float:
                ("mount", "mold_base", "mold_lid", "whisker_ring", "adapter", "flange_plate", "cover", "winding_jig"))
 
 
+def _leads(c: Ctx) -> dict:
+    from whisker import leads
+    return leads.length_report(c.d)
+
+
 def _bom_for(n: int, *sets: str):
     from whisker import bom
     d = default_design(f"whiskers.count={n}", *sets)
@@ -93,8 +98,12 @@ CHECKS = [
      lambda c: [0.05, c.d.coil.inner_diameter]),
     ("README.md", r"PLA \(Prusa MK3S, ([\d.]+) mm nozzle, ([\d.]+) mm layers",
      lambda c: [c.d.print.nozzle_diameter, c.d.print.layer_height]),
-    ("README.md", r"For the paper's coil: (\d+) turns of ([\d.]+) mm wire do \*\*not\*\* fit (\d+) x (\d+) mm",
-     lambda c: [c.d.coil.turns, c.d.coil.wire_diameter, c.d.coil.outer_diameter, c.d.coil.length]),
+    ("README.md", r"For the paper's coil: \d+ turns of ([\d.]+) mm wire do \*\*not\*\* fit (\d+) x (\d+) mm",
+     lambda c: [c.d.coil.wire_diameter, c.d.coil.outer_diameter, c.d.coil.length]),
+    ("README.md", r"\*\*(\d+) turns, ([\d.]+) ohm\*\*", lambda c: [c.d.coil.turns, c.d.coil.resistance]),
+    ("docs/assembly.md", r"each needs at least (\d+) mm from the winding out through the wall, and swinging "
+     r"changes its taut path by up to ([\d.]+) mm",
+     lambda c: [_leads(c)["needed_to_outside_mm"], _leads(c)["swing_slack_mm"]]),
     # printing: the profile, the refusal example, the size of every printed part
     ("docs/printing.md", r"([\d.]+) mm nozzle, generic PLA \(([\d.]+) mm, ([\d.]+) g/cm\^3, [^)]*\), ([\d.]+) mm layers",
      lambda c: [c.d.print.nozzle_diameter, 1.75, c.d.print.filament_density, c.d.print.layer_height]),
@@ -166,7 +175,7 @@ EXEMPT = [
     (r"The 10 mm bridge limit", "the overhang check's setting (printcheck.MAX_BRIDGE_MM)"),
     (r"\| \d+ whiskers, \d+ mm ring( \(default\))? \|", "slicer results of other designs (make check-print)"),
     (r"0\.3 mm layers", "the coarse slicer setting (printcheck.COARSE_ARGS)"),
-    (r"radially out 3\.3 mm \(neck_to_pocket\)", "generated from the sequence (tests/test_assembly_images.py)"),
+    (r"radially out [\d.]+ mm \(neck_to_pocket\)", "generated from the sequence (tests/test_assembly_images.py)"),
     (r"whisker hw bom --set whiskers.count=6", "a command-line example"),
     (r"0\.1 mm enamelled copper wire spool", "a vendor listing"),
     (r"\| mount \| [\d.]+ g \(", "benchmark results (benchmarks/results/bom.md)"),
