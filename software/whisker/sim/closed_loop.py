@@ -157,7 +157,11 @@ class SimGraspRig:
         self._table = mujoco.mj_name2id(self.sim.model, mujoco.mjtObj.mjOBJ_GEOM, "table")
 
     def params(self, **kw) -> ControlParams:
+        from whisker.grasp_control import settle_time_s
+
         e = self.scene.experiment
+        if "settle_s" not in kw:
+            kw["settle_s"] = settle_time_s(self.design, kw.get("model_tolerance", ControlParams.model_tolerance))
         return ControlParams(full_level=self.level, grasp_height_mm=self.grasp_h, start_height_mm=self.start_h,
                              fps=self.fps, lift_mm=e.lift, **kw)
 
