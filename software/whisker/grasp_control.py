@@ -7,7 +7,7 @@ controller answers with coil levels and an arm velocity (`Command`). Phases:
    the state estimator each whisker's rest position and noise. A whisker in contact here (before
    any actuation) aborts: coils off, arm up (fail safe, reason logged).
 2. ``close``    the configuration's coils at the paper's level. After `settle_s` (from the design's
-   whisker dynamics, :func:`settle_time_s`: ~74 ms, so the second frame at 15/s) a whisker holds the
+   whisker dynamics, :func:`settle_time_s`: ~76 ms, so the second frame at 15/s) a whisker holds the
    object when its displacement differs from the displacement its own coil alone would cause
    (`expected_px(level)`, the free closing in air) by more than the estimator's contact threshold
    (whisker.states.AdaptiveEstimator with the command's expected displacement). Grip when at
@@ -51,7 +51,7 @@ class ControlParams:
     lift_mm: float = 30.0
     lift_s: float = 0.5
     hold_s: float = 0.4
-    settle_s: float = 0.075                 # the rigs set it from the design: settle_time_s(design, model_tolerance)
+    settle_s: float = 0.076                 # the rigs set it from the design: settle_time_s(design, model_tolerance)
     close_timeout_s: float = 0.6
     quorum: float = 0.5
     step_factor: float = 0.95
@@ -74,9 +74,10 @@ def settle_time_s(design, tolerance: float) -> float:
 
     The whisker is a torsional spring-damper about its pivot (whisker.sim.kinematics.whisker_body:
     stiffness k, inertia J, damping ratio zeta, omega_n = sqrt(k/J)); its step response approaches
-    the final value inside the envelope exp(-sigma t), sigma = zeta omega_n when under-damped, the slow
-    pole omega_n (zeta - sqrt(zeta^2 - 1)) when over-damped (any second-order text, e.g. Ogata,
-    Modern Control Engineering, ch. 5). t = ln(1/tolerance) / sigma. Gravity and the magnet's pull,
+    the final value inside the envelope exp(-zeta omega_n t) / sqrt(1 - zeta^2) when under-damped
+    (Ogata, Modern Control Engineering, 5th ed., sec. 5-3), so t = ln(1 / (tolerance sqrt(1 - zeta^2)))
+    / (zeta omega_n); over-damped, the slow pole omega_n (zeta - sqrt(zeta^2 - 1)) sets the rate
+    (t = ln(1/tolerance) / that rate). Gravity and the magnet's pull,
     which softens the spring near full closing, are neglected (the estimator's tolerance covers the
     map's error)."""
     from whisker.sim.kinematics import whisker_body
@@ -85,10 +86,13 @@ def settle_time_s(design, tolerance: float) -> float:
         raise ValueError(f"settle tolerance must be a share in (0, 1), got {tolerance}")
     zeta = float(design.mechanics.damping_ratio)
     wn = whisker_body(design).omega_n
-    sigma = zeta * wn if zeta < 1.0 else wn * (zeta - math.sqrt(zeta * zeta - 1.0))
+    if zeta < 1.0:
+        sigma, amp = zeta * wn, 1.0 / math.sqrt(1.0 - zeta * zeta)
+    else:
+        sigma, amp = wn * (zeta - math.sqrt(zeta * zeta - 1.0)), 1.0
     if not (sigma > 0 and math.isfinite(sigma)):
         raise ValueError(f"mechanics.damping_ratio={zeta:g}: the whisker never settles (no damping)")
-    return math.log(1.0 / tolerance) / sigma
+    return max(0.0, math.log(amp / tolerance)) / sigma
 
 
 @dataclass
