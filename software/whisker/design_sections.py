@@ -337,7 +337,7 @@ class Adapter(_Section):
     @field_validator("preset")
     @classmethod
     def _known_flange(cls, v: str) -> str:
-        from whisker.cad.extras import flanges  # the table's loader (hw/flanges.csv), loaded on use
+        from whisker.flanges import flanges  # the table's loader (hw/flanges.csv), loaded on use
         if v not in flanges():
             raise ValueError(f"unknown flange {v!r}; known: {', '.join(flanges())}")
         return v
