@@ -37,7 +37,8 @@ CHILD = textwrap.dedent('''
             LOG.write(f"{{self.info.name}} function {{value}}\\n"); LOG.flush()
 
     from test_actuation_doubles import coil_model
-    from whisker.actuation import Actuator, GpioBackend, deenergise_on_signals
+    from whisker.actuation import Actuator, deenergise_on_signals
+    from whisker.hbridge import GpioBackend
     from whisker.design import default_design
     from whisker.guard import ThermalGuard
 

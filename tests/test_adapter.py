@@ -9,7 +9,8 @@ import math
 import pytest
 
 from whisker import fasteners as fz
-from whisker.cad import adapter, extras, mount, walls
+from whisker import flanges
+from whisker.cad import adapter, mount, walls
 from whisker.cad.checks import describe_circles, holes, section, to_mesh
 from whisker.design import DesignError, default_design
 
@@ -33,7 +34,7 @@ def _circles(mesh, z):
 
 @pytest.mark.parametrize("preset", PRESETS[:2])
 def test_bolt_pattern_on_the_mesh_matches_the_preset(d, meshes, preset):
-    fl = extras.flange(preset)
+    fl = flanges.flange(preset)
     L = adapter.layout(d, preset)
     plate = meshes[preset][1]
     clear = fz.hole(fl.thread, "through").diameter
@@ -104,7 +105,7 @@ def test_coupling_screws_sit_over_the_inserts_and_clear_the_mount(d, meshes, pre
 @pytest.mark.parametrize("preset", PRESETS)
 def test_screw_engagement_within_the_tables_range(d, preset):
     joints = adapter.joints(d, preset)
-    assert len(joints) == (3 if extras.flange(preset).bolt_count else 2)
+    assert len(joints) == (3 if flanges.flange(preset).bolt_count else 2)
     for j in joints:
         length, engaged = fz.screw_length(j.size, j.kind, j.clamp, j.engage_max)
         lo, hi = fz.fastener(j.size).engagement(j.kind)

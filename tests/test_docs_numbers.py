@@ -24,7 +24,8 @@ import pytest
 
 from conftest import load_manifest
 from whisker import fasteners
-from whisker.cad import adapter, extras
+from whisker import flanges
+from whisker.cad import adapter
 from whisker.design import default_design
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -88,7 +89,7 @@ CHECKS = [
     ("README.md", r"`mold.draft_deg` \(([\d.]+) deg\)", lambda c: [c.d.mold.draft_deg]),
     ("README.md", r"`mold.rod_slack` \(([\d.]+) mm\)", lambda c: [c.d.mold.rod_slack]),
     ("README.md", r"(\d+) coupling screws go down", lambda c: [c.d.adapter.coupling_count]),
-    ("README.md", r"Two plates because a ([\d.]+) mm flange", lambda c: [extras.flange("iso9409_31_5_4_m5").pitch_diameter]),
+    ("README.md", r"Two plates because a ([\d.]+) mm flange", lambda c: [flanges.flange("iso9409_31_5_4_m5").pitch_diameter]),
     ("README.md", r"The default mount is ([\d.]+) mm across and ([\d.]+) mm tall",
      lambda c: c.size("mount", "bbox_mm")[1:]),
     ("README.md", r"The camera distance \(([\d.]+) mm\) and the marker size \(([\d.]+) mm\)",
@@ -152,7 +153,7 @@ CHECKS = [
      lambda c: [c.d.membrane.thickness / 2 * math.tan(math.radians(c.d.mold.draft_deg)), c.d.mold.draft_deg,
                 c.d.membrane.thickness / 2 * math.tan(math.radians(c.d.mold.draft_deg))]),
     ("docs/assembly.md", r"inside the mount seat's ([\d.]+) mm `print.clearance`", lambda c: [c.d.print.clearance]),
-    ("docs/assembly.md", r"they lie on a ([\d.]+) mm circle", lambda c: [extras.flange("iso9409_31_5_4_m5").pitch_diameter]),
+    ("docs/assembly.md", r"they lie on a ([\d.]+) mm circle", lambda c: [flanges.flange("iso9409_31_5_4_m5").pitch_diameter]),
     ("docs/assembly.md", r"from below: (\d+) M(\d) screws", lambda c: [c.d.mount.mounting_hole_count, 3]),
     ("docs/assembly.md", r"drive the (\d+) M(\d) coupling screws", lambda c: [c.d.adapter.coupling_count, 3]),
 ]

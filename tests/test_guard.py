@@ -11,7 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from test_actuation_doubles import DoubleThermal, FakeClock, coil_model, double_current_A
-from whisker.actuation import Actuator, mock_backend
+from whisker.actuation import Actuator
+from whisker.hbridge import mock_backend
 from whisker.design import default_design
 from whisker.guard import (RatingError, ThermalGuard, check_driver, check_levels, full_scale_voltage,
                            max_level, volts_to_levels)

@@ -75,7 +75,8 @@ def recording(tmp_path_factory):
 
 
 def _hardware(rec, folder=None, *, log=None, guard_C=None, watchdog_s=30.0, on_frame=None, source=None, arm=None):
-    from whisker.actuation import Actuator, mock_backend
+    from whisker.actuation import Actuator
+    from whisker.hbridge import mock_backend
     from whisker.camera import FolderSource
     from whisker.rig import HandHeldArm, HardwareRig
     from whisker.tracking import Tracker

@@ -136,7 +136,7 @@ def test_backend_follows_levels_and_refuses_bad_input():
 
 
 def test_open_backend_sim_from_actuation_module():
-    act = pytest.importorskip("whisker.actuation", reason="whisker.actuation (issue 7) not installed")
+    act = pytest.importorskip("whisker.hbridge", reason="whisker.hbridge (issue 7) not installed")
     be = act.open_backend("sim", D)
     be.set_levels(np.zeros(D.whiskers.count))
     be.off()

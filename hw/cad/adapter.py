@@ -32,6 +32,8 @@ import numpy as np
 from whisker import fasteners, sizing
 from whisker.design import Design
 
+from whisker import flanges
+
 from . import extras
 from .shapes import cut_all, cylinder, polar_xy
 
@@ -111,7 +113,7 @@ def layout(d: Design, preset: str | None = None) -> dict:
 
 def _layout(d: Design, preset: str | None) -> dict:
     a = extras.section(d, "adapter", **({"preset": preset} if preset else {}))
-    fl = extras.flange(a.preset)
+    fl = flanges.flange(a.preset)
     w = d.print.min_wall
     sensor = fasteners.fastener(d.fasteners.mount_screw)
     robot = fasteners.fastener(fl.thread) if fl.bolt_count else None
@@ -262,6 +264,6 @@ def joints(d: Design, preset: str | None = None) -> list[fasteners.Joint]:
     return out
 
 
-def bolt_circle_error(found: list[tuple[float, float, float]], fl: "extras.Flange") -> float:
+def bolt_circle_error(found: list[tuple[float, float, float]], fl: "flanges.Flange") -> float:
     """Largest radial error (mm) of found (r, angle, dia) circles from the preset's pitch circle."""
     return max((abs(r - fl.pitch_diameter / 2) for r, _, _ in found), default=math.inf)

@@ -8,8 +8,8 @@ regenerates it and fails when it differs.
 Quantity rules (all inputs from the Design unless stated):
 - rods, coils, magnets: one per whisker (N = whiskers.count).
 - magnet wire: N x (winding wire length + 2 x bom.coil_lead_length) x (1 + bom.wire_waste); the
-  winding is the turns that fit the bobbin's window (``whisker.cad.bobbin.winding``, through the
-  coil calculator ``whisker.coil.winding``).
+  winding is the turns that fit the bobbin's window (the coil calculator ``whisker.coil.winding`` on
+  the former's window, ``whisker.former``).
 - screws and heat-set inserts: per fastened joint ([fasteners], the adapter's flange), ISO 4762
   stock lengths for each stack (``whisker.fasteners.bom_lines``).
 - L298N modules: ceil(N / 2) (two H-bridge channels each); PCA9685 boards when wiring.expander is
@@ -95,15 +95,15 @@ class CoilWire:
 
 def coil_wire(design: Design) -> CoilWire:
     """Wire of one coil: the turns that fit the bobbin's winding window at [winding] fill_factor
-    (whisker.cad.bobbin.winding, through the coil calculator whisker.coil.winding), mm."""
-    from whisker.cad.bobbin import winding
+    (the coil calculator whisker.coil.winding on the former's window, whisker.former; no CAD), mm."""
+    from whisker.coil import winding
 
     try:
         w = winding(design)
     except ValueError as err:  # whisker.coil.CoilError: an impossible winding request
         raise BomError(f"coil winding: {err}") from err
-    return CoilWire(float(w["wire_length_mm"]), "the turns that fit the bobbin, whisker.cad.bobbin.winding",
-                    bool(w["design_turns_fit"]), int(w["turns"]))
+    return CoilWire(float(w.wire_length_mm), "the turns that fit the bobbin, whisker.coil.winding",
+                    bool(w.fits), int(w.turns))
 
 
 def cad_measures(design: Design) -> tuple[dict[str, float], dict[str, float]]:

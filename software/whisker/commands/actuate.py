@@ -151,7 +151,8 @@ def cli(design, action, values, backend, which, start, level, volts, policy, dur
 
 def run_sequence_file(design, path, backend, policy, quiet):
     """`whisker actuate sequence FILE`: validate every step, then run them with phase reports."""
-    from whisker.actuation import deenergise_on_signals, load_sequence, open_actuator, run_sequence
+    from whisker.actuation import deenergise_on_signals, open_actuator
+    from whisker.coil_sequences import load_sequence, run_sequence
     from whisker.guard import RatingError
 
     if not path:

@@ -26,7 +26,8 @@ def sequence_options(f):
 
 
 def build_sequence(design, which, start, level, hold_level, retract_s, hold_s, release_s, release_level):
-    from whisker.actuation import configuration, grasp_sequence
+    from whisker.actuation import configuration
+    from whisker.coil_sequences import grasp_sequence
 
     mask = configuration(design.whiskers.count, which, start)
     return grasp_sequence(design.whiskers.count, mask, level, retract_s=retract_s, hold_s=hold_s,
@@ -56,7 +57,8 @@ def cli(design, backend, which, start, level, volts, policy, release_level, hold
     \b
       whisker grasp --config every-second --backend gpio --hold-s 3 --hold-level 0.35
     """
-    from whisker.actuation import deenergise_on_signals, open_actuator, run_sequence
+    from whisker.actuation import deenergise_on_signals, open_actuator
+    from whisker.coil_sequences import run_sequence
     from whisker.guard import RatingError
 
     try:

@@ -75,7 +75,8 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
 
     from tqdm import tqdm
 
-    from whisker.actuation import ThreadedSequenceRunner, deenergise_on_signals, open_actuator
+    from whisker.actuation import deenergise_on_signals, open_actuator
+    from whisker.coil_sequences import ThreadedSequenceRunner
     from whisker.camera import SourceError, open_source
     from whisker.commands.actuate import resolve_level
     from whisker.guard import RatingError
@@ -87,7 +88,7 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
         fail("record: --grasp and --sequence need an actuation --backend (mock, gpio or sim)")
     file_steps = None
     if sequence_file is not None:
-        from whisker.actuation import load_sequence
+        from whisker.coil_sequences import load_sequence
 
         try:
             file_steps = load_sequence(design, sequence_file)
@@ -111,7 +112,7 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
     if source == "sim":
         if backend not in ("sim", "none"):
             fail("record: --source sim films the simulator: use --backend sim (or none)")
-        from whisker.actuation import open_backend
+        from whisker.hbridge import open_backend
 
         sim_backend = open_backend("sim", design)
         src = SimCamera(design, sim_backend, fps=fps)

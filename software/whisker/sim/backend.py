@@ -1,6 +1,6 @@
 """An actuation backend driving the simulated whiskers (the contract's ``set_levels``/``off``).
 
-``whisker actuate --backend sim`` (whisker.actuation.open_backend("sim")) gets one of these. The
+``whisker actuate --backend sim`` (whisker.hbridge.open_backend("sim")) gets one of these. The
 whiskers follow the levels through the same effects a free scene builds (kinematics, gravity,
 magnetics): each call advances the simulation to the caller's clock (``time.monotonic`` by
 default, or an injected clock for tests), holding the previous levels over the elapsed time, so
