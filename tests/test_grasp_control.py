@@ -185,3 +185,64 @@ def test_early_contact_can_be_logged_instead_of_aborting():
     dx[5] = 6.0
     c = ctl.step(4 / FPS, dx, dy, valid)
     assert c.phase == "descend" and any("continuing" in e[2] for e in ctl.log.events)
+
+
+class _HalvingGuard:
+    """A stand-in thermal guard that halves every level once `hot` is set (a coil in its derate band)."""
+
+    def __init__(self):
+        self.hot = False
+        self.tripped = np.zeros(N, dtype=bool)
+        self.temperatures = np.full(N, 45.0)
+
+    def allow(self, req, t):
+        return np.asarray(req, float) * (0.5 if self.hot else 1.0)
+
+
+def test_a_derated_hold_is_judged_at_the_level_the_coils_got():
+    """The guard lowers the holding coils: the controller logs it, and a whisker that then sits at its
+    free closing for the lowered level (the object fell) is no longer taken for a holding one."""
+    guard = _HalvingGuard()
+    ctl = GraspController(N, range(N), _params(), _linear_map, guard=guard)
+    k = _descent(ctl)
+    held = [(np.full(N, 4.0), np.zeros(N), np.ones(N, bool))] * 4     # blocked at 4 px (free: 18 px)
+    cmds = _drive(ctl, held, start_t=k / FPS)
+    assert cmds[-1].phase == "lift" and ctl.est.contact.all()
+    guard.hot = True
+    t = (k + 4) / FPS
+    ctl.step(t, np.full(N, 4.0), np.zeros(N), np.ones(N, bool))
+    assert any(e[1] == "derate" for e in ctl.log.events), ctl.log.events
+    assert np.allclose(ctl.expected_applied(), _linear_map(0.45))
+    for j in range(1, 4):                                 # the whiskers close freely at the derated level
+        ctl.step(t + j / FPS, np.full(N, 9.0), np.zeros(N), np.ones(N, bool))
+    assert not ctl.est.contact.any()                      # judged against 18 px this would still be "contact"
+
+
+def test_settle_time_is_when_a_free_whisker_stays_within_the_tolerance():
+    """settle_time_s from the design's stiffness, inertia and damping: a free whisker stepped in the
+    time domain (whisker.sim.kinematics.step_free) stays within the tolerance of its final tilt after it."""
+    from whisker.design import load_design
+    from whisker.grasp_control import settle_time_s
+    from whisker.sim.kinematics import step_free, whisker_body
+
+    design = load_design()
+    body = whisker_body(design)
+    for tol in (0.3, 0.15, 0.05):
+        ts = settle_time_s(design, tol)
+        final = 0.1                                       # rad, well inside the stop
+        tau = body.stiffness * final
+        dt = 1e-5
+        th, om = np.zeros(1), np.zeros(1)
+        t, worst_after, worst_before = 0.0, 0.0, 0.0
+        while t < 6 * ts:
+            th, om = step_free(body, th, om, tau, dt)
+            t += dt
+            err = abs(float(th[0]) - final) / final
+            if t >= ts:
+                worst_after = max(worst_after, err)
+            elif t >= 0.5 * ts:
+                worst_before = max(worst_before, err)
+        assert worst_after <= tol                          # settled by then
+        assert worst_before > 0.5 * tol                    # and not long before (the bound is not loose)
+    with pytest.raises(ValueError, match="tolerance"):
+        settle_time_s(design, 1.5)

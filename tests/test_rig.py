@@ -22,7 +22,7 @@ REST = 5
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
-    """A closed-loop grasp of the foam ball in MuJoCo (sim path: rendered camera -> tracker -> controller),
+    """A closed-loop grasp of the pom-pom in MuJoCo (sim path: rendered camera -> tracker -> controller),
     its frames written to a folder (PNG + times.csv) and the commands it gave."""
     pytest.importorskip("mujoco", reason="MuJoCo (the `sim` extra) renders the recorded grasp")
     import cv2
@@ -35,7 +35,7 @@ def recording(tmp_path_factory):
 
     scene = load_scene(ROOT / "software/whisker/sim/scenes/grasp.toml")
     design = scene_design(scene)
-    obj = {o.name: o for o in experiment_objects(scene)}["foam ball"]
+    obj = {o.name: o for o in experiment_objects(scene)}["pom-pom"]
     expected = free_closing_px(design)
     rig = SimGraspRig(scene, design, obj, list(range(8)), Placement(), fps=FPS)
     folder = tmp_path_factory.mktemp("grasp_frames")
@@ -186,7 +186,7 @@ def test_dropped_frames_turn_every_coil_off(recording, tmp_path):
 def test_contact_before_actuation_never_drives_a_coil(recording, tmp_path):
     folder = _copy(recording, tmp_path)
     files = sorted(folder.glob("*.png"))
-    late = _frame_of(recording, "lift", 0)               # whiskers closed on the ball
+    late = _frame_of(recording, "lift", 0)               # whiskers closed on the pom-pom
     first = _frame_of(recording, "descend", 3)           # after the rest statistics are learned
     for j, f in enumerate(files[first:_frame_of(recording, "close", 0)]):
         shutil.copyfile(files[late], f)                  # displaced whiskers while the coils are still off
@@ -296,7 +296,9 @@ def test_a_lossless_video_of_the_recording_replays_to_the_same_decisions(recordi
     assert res.phase == "done" and len(res.commands) == len(sim)
     for (t_s, ph_s, lv_s, v_s), (t_h, ph_h, lv_h, v_h) in zip(sim, res.commands):
         assert t_h == pytest.approx(t_s, abs=1e-3) and ph_h == ph_s and v_h == pytest.approx(v_s)
-        assert np.allclose(lv_h, lv_s, rtol=0, atol=1e-12)
+        # the guard integrates the coil temperature on these times: within its derate band the level
+        # moves ~(18 K/s / 10 K) per s, so 1 ms of time is < 2e-3 of a level (exact when not derating)
+        assert np.allclose(lv_h, lv_s, rtol=0, atol=2e-3)
     assert np.all(_pins(backend) == 0)
 
 

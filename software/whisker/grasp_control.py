@@ -6,7 +6,8 @@ controller answers with coil levels and an arm velocity (`Command`). Phases:
 1. ``descend``  arm down at `descend_mm_s` to the grasp height, coils off. The first frames teach
    the state estimator each whisker's rest position and noise. A whisker in contact here (before
    any actuation) aborts: coils off, arm up (fail safe, reason logged).
-2. ``close``    the configuration's coils at the paper's level. After `settle_s` a whisker holds the
+2. ``close``    the configuration's coils at the paper's level. After `settle_s` (from the design's
+   whisker dynamics, :func:`settle_time_s`: ~76 ms, so the second frame at 15/s) a whisker holds the
    object when its displacement differs from the displacement its own coil alone would cause
    (`expected_px(level)`, the free closing in air) by more than the estimator's contact threshold
    (whisker.states.AdaptiveEstimator with the command's expected displacement). Grip when at
@@ -50,7 +51,7 @@ class ControlParams:
     lift_mm: float = 30.0
     lift_s: float = 0.5
     hold_s: float = 0.4
-    settle_s: float = 0.15                  # whisker time constant 1/(zeta omega_n) ~ 32 ms: ~5 of them
+    settle_s: float = 0.076                 # the rigs set it from the design: settle_time_s(design, model_tolerance)
     close_timeout_s: float = 0.6
     quorum: float = 0.5
     step_factor: float = 0.95
@@ -65,6 +66,33 @@ class ControlParams:
                                             # the issue's rule) or "continue" (log it and grasp anyway)
     lost_frames: int = 2
     max_gap_frames: float = 2.5
+
+
+def settle_time_s(design, tolerance: float) -> float:
+    """Time (s) after a coil step for a free whisker's displacement to come within `tolerance`
+    (a share) of its free closing, so that a whisker still swinging is not taken for a blocked one.
+
+    The whisker is a torsional spring-damper about its pivot (whisker.sim.kinematics.whisker_body:
+    stiffness k, inertia J, damping ratio zeta, omega_n = sqrt(k/J)); its step response approaches
+    the final value inside the envelope exp(-zeta omega_n t) / sqrt(1 - zeta^2) when under-damped
+    (Ogata, Modern Control Engineering, 5th ed., sec. 5-3), so t = ln(1 / (tolerance sqrt(1 - zeta^2)))
+    / (zeta omega_n); over-damped, the slow pole omega_n (zeta - sqrt(zeta^2 - 1)) sets the rate
+    (t = ln(1/tolerance) / that rate). Gravity and the magnet's pull,
+    which softens the spring near full closing, are neglected (the estimator's tolerance covers the
+    map's error)."""
+    from whisker.sim.kinematics import whisker_body
+
+    if not (0.0 < tolerance < 1.0):
+        raise ValueError(f"settle tolerance must be a share in (0, 1), got {tolerance}")
+    zeta = float(design.mechanics.damping_ratio)
+    wn = whisker_body(design).omega_n
+    if zeta < 1.0:
+        sigma, amp = zeta * wn, 1.0 / math.sqrt(1.0 - zeta * zeta)
+    else:
+        sigma, amp = wn * (zeta - math.sqrt(zeta * zeta - 1.0)), 1.0
+    if not (sigma > 0 and math.isfinite(sigma)):
+        raise ValueError(f"mechanics.damping_ratio={zeta:g}: the whisker never settles (no damping)")
+    return max(0.0, math.log(amp / tolerance)) / sigma
 
 
 @dataclass
@@ -115,6 +143,8 @@ class GraspController:
         self._d = np.zeros((self.n, 2))
         self._early_logged = False
         self._lifted = 0.0
+        self._applied = np.zeros(self.n)     # the levels the coils actually got (after the guard)
+        self._derate_logged = False
 
     # -- helpers ------------------------------------------------------------------------------
     def _enter(self, t: float, phase: str, reason: str = "") -> None:
@@ -124,9 +154,17 @@ class GraspController:
 
     def _levels(self, level: float, t: float) -> np.ndarray:
         req = np.where(self.active, level, 0.0)
-        if self.guard is None:
-            return req
-        return self.guard.allow(req, t)
+        out = req if self.guard is None else self.guard.allow(req, t)
+        self._applied = np.asarray(out, dtype=float).copy()
+        if (self.guard is not None and not self._derate_logged and self._holding.any()
+                and np.any(np.abs(out[self._holding]) < np.abs(req[self._holding]) * 0.99)):
+            # the guard lowers a holding coil: the grip now has less force than the controller chose
+            self._derate_logged = True
+            w = int(np.flatnonzero(self._holding & (np.abs(out) < np.abs(req) * 0.99))[0])
+            self.log.events.append((round(t, 4), "derate", f"thermal guard: whisker {w} at level {abs(out[w]):.3f} "
+                                                           f"of {abs(req[w]):.3f} "
+                                                           f"({float(self.guard.temperatures[w]):.1f} C)"))
+        return out
 
     def _abort(self, t: float, reason: str, arm: float = 0.0) -> Command:
         self.level = 0.0
@@ -136,6 +174,16 @@ class GraspController:
     def expected(self, level: float) -> np.ndarray:
         e = np.asarray(self.expected_px(level), dtype=float).reshape(self.n, 2)
         return np.where(self.active[:, None], e, 0.0)
+
+    def expected_applied(self) -> np.ndarray:
+        """Each whisker's free closing at the level its coil actually got (the guard may have
+        lowered it below the request): the reference for contact and slip."""
+        lv = np.abs(self._applied)
+        out = np.zeros((self.n, 2))
+        for v in np.unique(lv[self.active]):
+            m = self.active & (lv == v)
+            out[m] = self.expected(float(v))[m]
+        return out
 
     # -- the loop -----------------------------------------------------------------------------
     def step(self, t_s: float, dx_px, dy_px, valid=None) -> Command:
@@ -158,7 +206,7 @@ class GraspController:
         if np.any(self._lost >= p.lost_frames):
             w = int(np.argmax(self._lost))
             return self._abort(t, f"marker of whisker {w} lost for {int(self._lost[w])} frames")
-        exp = self.expected(self.level) if self.level else None
+        exp = self.expected_applied() if np.any(self._applied[self.active]) else None
         self.est.update(t, np.where(ok, dx, np.nan), np.where(ok, dy, np.nan), exp)
         contact = self.est.contact.copy()
         since = t - self._t_phase
@@ -221,7 +269,7 @@ class GraspController:
         if self.phase in ("lift", "hold"):
             if self._guard_cut():
                 return self._abort(t, "thermal guard cut a holding coil")
-            gap = np.linalg.norm(d - self.expected(self.level), axis=1)
+            gap = np.linalg.norm(d - self.expected_applied(), axis=1)
             slip = self._holding & ((gap < p.slip_fraction * self._gap0) | ~contact)
             if t >= self._pause_until and slip.any() and self.log.regrips < p.regrips and self.level < p.full_level - 1e-9:
                 self.log.regrips += 1
@@ -259,7 +307,7 @@ class GraspController:
         p = self.p
         self.log.hold_level = self.log.hold_level or self.level
         d = self._d
-        self._gap0 = np.linalg.norm(d - self.expected(self.level), axis=1)
+        self._gap0 = np.linalg.norm(d - self.expected_applied(), axis=1)
         self._lifted = 0.0
         self._enter(t, "lift", why)
         v = min(p.lift_mm / p.lift_s, p.lift_mm * p.fps)

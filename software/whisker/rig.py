@@ -313,11 +313,13 @@ def handheld_params(design, *, fps: float, descend_mm: float = 15.0, descend_s: 
     """ControlParams for a hand-held grasp: the design's grasp level (actuation.voltage, the paper's
     3 V, as a duty: whisker.guard.volts_to_levels) and a notional descent of `descend_mm` in
     `descend_s` (the operator lowers the sensor meanwhile; the rest statistics are learned then)."""
-    from whisker.grasp_control import ControlParams
+    from whisker.grasp_control import ControlParams, settle_time_s
     from whisker.guard import volts_to_levels
 
     if not (math.isfinite(descend_mm) and descend_mm > 0):
         raise ValueError(f"descent must be a positive distance in mm, got {descend_mm}")
     level = float(volts_to_levels(design, design.actuation.voltage))
+    if "settle_s" not in kw:        # the whisker's own settling time (grasp_control.settle_time_s)
+        kw["settle_s"] = settle_time_s(design, kw.get("model_tolerance", ControlParams.model_tolerance))
     return ControlParams(full_level=level, grasp_height_mm=0.0, start_height_mm=float(descend_mm), fps=float(fps),
                          descend_s=float(descend_s), **kw)

@@ -14,7 +14,7 @@ from whisker.commands.actuate import config_options
 DEFAULT_SCENE = Path(__file__).resolve().parents[1] / "sim" / "scenes" / "grasp.toml"
 
 #: options that only the simulated comparison reads, and those only a hardware run reads
-SIM_ONLY = ("scene_path", "attempts", "objects", "counts", "out")
+SIM_ONLY = ("scene_path", "attempts", "objects", "counts", "out", "open_guard")
 HW_ONLY = ("source", "which", "start", "policy", "out_log", "rest_frames", "max_frames", "track_method",
            "calibration", "mask", "descend_mm", "descend_s", "lift_mm", "lift_s", "hold_s", "arm", "design_file",
            "overrides", "watchdog_s")
@@ -36,6 +36,9 @@ HW_ONLY = ("source", "which", "start", "policy", "out_log", "rest_frames", "max_
               help="[sim] Only the configurations with these many whiskers (repeatable: 8, 4, 2).")
 @click.option("--out", type=click.Path(file_okay=False), default="runs/grasp-closed", show_default=True,
               help="[sim] Folder for closed_loop.md, closed_loop.json and closed_loop_runs.csv.")
+@click.option("--open-guard", is_flag=True,
+              help="[sim] The open loop's levels pass through the same thermal guard as the closed loop's "
+                   "(the hardware's actuator always applies it); default: the bare paper protocol.")
 @click.option("--early-contact", type=click.Choice(["abort", "continue"]), default="abort", show_default=True,
               help="A whisker touched before any coil is driven: abort (fail safe) or log it and grasp anyway.")
 @click.option("--design", "design_file", type=click.Path(dir_okay=False), default=None,
@@ -77,7 +80,7 @@ HW_ONLY = ("source", "which", "start", "policy", "out_log", "rest_frames", "max_
                    "for a live camera, 5 s for a file).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar / prompts.")
 @click.pass_context
-def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, early_contact, quiet, **hw):
+def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guard, early_contact, quiet, **hw):
     """Closed-loop grasps: grip on contact, lowest holding level, slip re-grip, fail safe.
 
     \b
@@ -103,16 +106,16 @@ def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, early_con
         if extra:
             fail(f"closedloop: --{extra[0].replace('out_log', 'log').replace('_', '-').replace('which', 'config')} "
                  "is for --backend mock or gpio (the simulator takes the design and frames from --scene)")
-        return run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet)
+        return run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard)
     extra = sorted(given & set(SIM_ONLY))
     if extra:
-        fail(f"closedloop: --{extra[0].replace('scene_path', 'scene').replace('counts', 'whiskers')} "
+        fail(f"closedloop: --{extra[0].replace('scene_path', 'scene').replace('counts', 'whiskers').replace('_', '-')} "
              "is for --backend sim only")
     fps_given = ctx.get_parameter_source("fps") != ParameterSource.DEFAULT
     sys.exit(run_hardware(backend, fps, fps_given, early_contact, quiet, **hw))
 
 
-def run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet):
+def run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard=False):
     from tqdm import tqdm
 
     from whisker.files import atomic_write_text
@@ -134,7 +137,7 @@ def run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quie
             bar.n = round(f, 4)
             bar.refresh()
         tab = closed_loop_table(scene, design, attempts=attempts, fps=fps, configs=cfgs, objects=list(objects) or None,
-                                progress=progress, params={"early_contact": early_contact})
+                                progress=progress, params={"early_contact": early_contact}, open_guard=open_guard)
         bar.close()
     except (SceneError, ValueError) as err:
         fail(f"closedloop: {err}")

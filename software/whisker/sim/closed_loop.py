@@ -51,10 +51,13 @@ def free_closing_px(design, *, facing: str = "down", points: int = 24):
 
 class OpenLoopController:
     """The paper's protocol (whisker.sim.paper timeline) frame by frame: descend, close at the level,
-    wait, lift, hold, release. It never looks at the frames."""
+    wait, lift, hold, release. It never looks at the frames. `guard`: a whisker.guard.ThermalGuard
+    on the frame clock the levels pass through, as the hardware's actuator always does (None: the
+    bare protocol, as `make sim-grasp`)."""
 
-    def __init__(self, n: int, active, params: ControlParams):
+    def __init__(self, n: int, active, params: ControlParams, guard=None):
         self.p = params
+        self.guard = guard
         self.mask = np.zeros(n, dtype=bool)
         self.mask[list(active)] = True
         self.phase = "descend"
@@ -63,6 +66,12 @@ class OpenLoopController:
         self._lifted = 0.0
 
     def step(self, t_s, dx_px=None, dy_px=None, valid=None) -> Command:
+        cmd = self._step(t_s)
+        if self.guard is not None:
+            cmd.levels = self.guard.allow(cmd.levels, t_s)
+        return cmd
+
+    def _step(self, t_s) -> Command:
         p = self.p
         if self._t0 is None:
             self._t0 = t_s
@@ -157,7 +166,11 @@ class SimGraspRig:
         self._table = mujoco.mj_name2id(self.sim.model, mujoco.mjtObj.mjOBJ_GEOM, "table")
 
     def params(self, **kw) -> ControlParams:
+        from whisker.grasp_control import settle_time_s
+
         e = self.scene.experiment
+        if "settle_s" not in kw:
+            kw["settle_s"] = settle_time_s(self.design, kw.get("model_tolerance", ControlParams.model_tolerance))
         return ControlParams(full_level=self.level, grasp_height_mm=self.grasp_h, start_height_mm=self.start_h,
                              fps=self.fps, lift_mm=e.lift, **kw)
 

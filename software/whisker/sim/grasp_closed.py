@@ -43,7 +43,9 @@ def _wilcoxon(x, y) -> float:
 
 
 def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, configs=None, objects=None,
-                      progress=None, params: dict | None = None) -> dict:
+                      progress=None, params: dict | None = None, open_guard: bool = False) -> dict:
+    """See the module doc. `open_guard`: the open loop's levels pass through the same thermal guard
+    as the closed loop's (the hardware's actuator always applies one); default: the bare protocol."""
     from whisker.grasp_control import GraspController
     from whisker.guard import ThermalGuard
     from whisker.sim.kinematics import whisker_body
@@ -69,7 +71,9 @@ def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, config
             for k, pl in enumerate(places):
                 for mode in ("open", "closed"):
                     rig = SimGraspRig(scene, design, o, cfg, pl, fps=fps, seed=k, body=body)
-                    ctl = (OpenLoopController(n, cfg, rig.params()) if mode == "open" else
+                    ctl = (OpenLoopController(n, cfg, rig.params(),
+                                              guard=ThermalGuard(design, clock=lambda: 0.0) if open_guard else None)
+                           if mode == "open" else
                            GraspController(n, cfg, rig.params(**(params or {})), expected,
                                            guard=ThermalGuard(design, clock=lambda: 0.0)))
                     r = run_grasp(rig, ctl, hold_height_mm=hold)
@@ -109,7 +113,7 @@ def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, config
                    "missed": sum(1 for r in res["closed"] if r.outcome.startswith("missed")),
                    "regrips": sum(int(any(e[1] == "regrip" for e in r.events)) for r in res["closed"])}
             rows.append(row)
-    return {"fps": fps, "attempts": attempts, "rows": rows, "runs": runs}
+    return {"fps": fps, "attempts": attempts, "rows": rows, "runs": runs, "open_guard": open_guard}
 
 
 def _fmt_e(v: float) -> str:
