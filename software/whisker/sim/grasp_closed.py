@@ -126,7 +126,7 @@ def closed_loop_markdown(tab: dict) -> str:
     from whisker.sim.experiments import PAPER_GRASP
 
     which = ("both through the same thermal guard" if tab.get("open_guard", True)
-             else "open loop = the bare paper protocol (no guard), closed loop through the thermal guard")
+             else "open loop = the bare paper protocol without a guard, closed loop through the thermal guard")
     out = [f"Open loop vs closed loop ({which}), {tab['attempts']} common placements per cell, "
            f"camera {tab['fps']:g} frames/s. "
            "success %: sim open / sim closed / paper (open loop); W-L: placements closed holds and open drops, and "
