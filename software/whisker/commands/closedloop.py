@@ -110,7 +110,9 @@ def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guar
         return run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard)
     extra = sorted(given & set(SIM_ONLY))
     if extra:
-        fail(f"closedloop: --{extra[0].replace('scene_path', 'scene').replace('counts', 'whiskers').replace('_', '-')} "
+        name = (extra[0].replace('scene_path', 'scene').replace('counts', 'whiskers')
+                .replace('open_guard', 'open-guard/--bare-open').replace('_', '-'))
+        fail(f"closedloop: --{name} "
              "is for --backend sim only")
     fps_given = ctx.get_parameter_source("fps") != ParameterSource.DEFAULT
     sys.exit(run_hardware(backend, fps, fps_given, early_contact, quiet, **hw))
