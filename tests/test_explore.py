@@ -152,12 +152,11 @@ def test_killed_run_resumes_to_the_same_table(serial, tmp_path):
 # ---- refusals, Pareto designs, failures, hostile input -------------------------------------------
 
 def test_cad_refusal_is_recorded_and_a_pareto_design_loads(tmp_path):
-    """R = 6 mm with 6 whiskers: the CAD checks refuse it (coils collide at full swing, as `make sweep`
-    says; with the wound coil's bobbin of issue 21, 7 mm now builds); R = 12 mm builds, is simulated and
-    is written as a design file that loads to the same design."""
+    """R = 7 mm with 6 whiskers: the CAD checks refuse it (coils collide at full swing, as `make sweep`
+    says); R = 12 mm builds, is simulated and is written as a design file that loads to the same design."""
     pytest.importorskip("cadquery", reason="CadQuery ([cad]) runs the CAD checks")
     out = tmp_path / "cad"
-    explore("--set", "whiskers.count=6", "--vary", "whiskers.ring_radius=6,12", "--attempts", "1", "--jobs", "1",
+    explore("--set", "whiskers.count=6", "--vary", "whiskers.ring_radius=7,12", "--attempts", "1", "--jobs", "1",
             "--cad", "evaluate", "-q", "--out", out)
     r7, r12 = rows(out)
     assert r7["status"] == "refused" and r7["reason"].startswith("CAD: assembly: coil clearance over full deflection")
