@@ -5,6 +5,7 @@ engine and after an interrupt, refusals, failing tasks and hostile input. About 
 from __future__ import annotations
 
 import csv
+import math
 import os
 import signal
 import subprocess
@@ -152,11 +153,16 @@ def test_killed_run_resumes_to_the_same_table(serial, tmp_path):
 # ---- refusals, Pareto designs, failures, hostile input -------------------------------------------
 
 def test_cad_refusal_is_recorded_and_a_pareto_design_loads(tmp_path):
-    """R = 7 mm with 6 whiskers: the CAD checks refuse it (coils collide at full swing, as `make sweep`
-    says); R = 12 mm builds, is simulated and is written as a design file that loads to the same design."""
+    """A ring 1 mm inside the small-ring bound (whisker.sizing.crowding_bound_radius) with 6 whiskers: the
+    CAD checks refuse it (coils collide at full swing, as `make sweep` says); R = 12 mm builds, is
+    simulated and is written as a design file that loads to the same design."""
     pytest.importorskip("cadquery", reason="CadQuery ([cad]) runs the CAD checks")
+    from whisker.design import default_design
+    from whisker.sizing import crowding_bound_radius
+
+    inside = math.floor(crowding_bound_radius(default_design("whiskers.count=6"))) - 1
     out = tmp_path / "cad"
-    explore("--set", "whiskers.count=6", "--vary", "whiskers.ring_radius=7,12", "--attempts", "1", "--jobs", "1",
+    explore("--set", "whiskers.count=6", "--vary", f"whiskers.ring_radius={inside},12", "--attempts", "1", "--jobs", "1",
             "--cad", "evaluate", "-q", "--out", out)
     r7, r12 = rows(out)
     assert r7["status"] == "refused" and r7["reason"].startswith("CAD: assembly: coil clearance over full deflection")

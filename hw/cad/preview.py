@@ -100,6 +100,9 @@ def render(meshes: list[tuple[trimesh.Trimesh, str]], title: str, size_px: tuple
     return buf.getvalue()
 
 
+CUT_OFFSET_MM = 1e-4  # mm, where the mount is cut open for the assembly picture
+
+
 def _load(out: Path, manifest: dict, name: str, to_design: bool) -> trimesh.Trimesh:
     part = manifest["parts"][name]
     mesh = trimesh.load_mesh(out / part["files"]["stl"])
@@ -112,7 +115,9 @@ def assembly_meshes(d: Design, out: Path, manifest: dict) -> list[tuple[trimesh.
     """Mount (cut open on the x-z plane, y > 0 kept), membrane, and every whisker's rod, coil and
     magnet, copied from whisker 0's reference parts by rotating about z (sensor coordinates)."""
     mount = _load(out, manifest, "mount", True)
-    cut = mount.slice_plane([0, 0, 0], [0, 1, 0], cap=True)
+    # 0.1 um off the x-z plane: features centred on it (cable exits, lead holes) put mesh vertices exactly
+    # on the plane, and trimesh's cap then leaves the cut mesh open.
+    cut = mount.slice_plane([0, CUT_OFFSET_MM, 0], [0, 1, 0], cap=True)
     items = [(cut, COLORS["mount"]), (_load(out, manifest, "membrane", True), COLORS["membrane"])]
     a0 = d.whisker_angles_deg[0]
     for name in ("rod", "coil", "magnet"):
