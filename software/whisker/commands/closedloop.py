@@ -87,7 +87,8 @@ def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guar
     \b
     --backend sim (default): grasp the scene's objects open loop (the paper: 3 V, lift, hope) and
       closed loop (camera -> tracker -> states -> controller) on the same placements in the
-      simulator, and write the paired table (docs/states.md).
+      simulator, both through the thermal guard (--bare-open: the open loop without it), and write
+      the paired table (docs/states.md).
     --backend gpio|mock: one closed-loop grasp on the hardware: --source frames -> tracker -> the same
       controller -> the coils (thermal guard, off on every exit) and the arm (hand-held prompts).
       A lost marker, dropped frames, contact before actuation, a thermal cut, no frame for
