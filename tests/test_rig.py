@@ -22,8 +22,12 @@ REST = 5
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
-    """A closed-loop grasp of the pom-pom in MuJoCo (sim path: rendered camera -> tracker -> controller),
-    its frames written to a folder (PNG + times.csv) and the commands it gave."""
+    """A closed-loop grasp of the foam ball in MuJoCo (sim path: rendered camera -> tracker -> controller),
+    its frames written to a folder (PNG + times.csv) and the commands it gave. The ball is the lightest
+    object and the one the paper's protocol always holds with 8 whiskers. It holds only while the coils
+    stay above ~0.8 of the paper's level through the lift: with the guard derating from 40 C (a 10 K
+    band) it dropped and the recording used the pom-pom; from 45 C (drive.guard_derate_band = 5) it
+    holds, which the replay test below asserts."""
     pytest.importorskip("mujoco", reason="MuJoCo (the `sim` extra) renders the recorded grasp")
     import cv2
 
@@ -35,7 +39,7 @@ def recording(tmp_path_factory):
 
     scene = load_scene(ROOT / "software/whisker/sim/scenes/grasp.toml")
     design = scene_design(scene)
-    obj = {o.name: o for o in experiment_objects(scene)}["pom-pom"]
+    obj = {o.name: o for o in experiment_objects(scene)}["foam ball"]
     expected = free_closing_px(design)
     rig = SimGraspRig(scene, design, obj, list(range(8)), Placement(), fps=FPS)
     folder = tmp_path_factory.mktemp("grasp_frames")
@@ -94,6 +98,16 @@ def _hardware(rec, folder=None, *, log=None, guard_C=None, watchdog_s=30.0, on_f
     finally:
         act.close()
     return res, backend, prompts
+
+
+def _derate_slope_per_s(design, level):
+    """Upper bound of how fast the guard lowers `level` (per s) inside its derate band: the coil's
+    heating rate at the band's start, at that level, over the band's width (whisker.guard)."""
+    g = ThermalGuard(design, clock=lambda: 0.0)
+    g.temperatures[:] = g.derate_from_C
+    dt = 0.01
+    rate_K_s = float(np.max(g.predict(np.full(g.n, level), dt) - g.derate_from_C)) / dt
+    return level * rate_K_s / (g.cut_C - g.derate_from_C)
 
 
 def _pins(backend):
@@ -186,7 +200,7 @@ def test_dropped_frames_turn_every_coil_off(recording, tmp_path):
 def test_contact_before_actuation_never_drives_a_coil(recording, tmp_path):
     folder = _copy(recording, tmp_path)
     files = sorted(folder.glob("*.png"))
-    late = _frame_of(recording, "lift", 0)               # whiskers closed on the pom-pom
+    late = _frame_of(recording, "lift", 0)               # whiskers closed on the ball
     first = _frame_of(recording, "descend", 3)           # after the rest statistics are learned
     for j, f in enumerate(files[first:_frame_of(recording, "close", 0)]):
         shutil.copyfile(files[late], f)                  # displaced whiskers while the coils are still off
@@ -293,12 +307,14 @@ def test_a_lossless_video_of_the_recording_replays_to_the_same_decisions(recordi
     res, backend, _ = _hardware(recording, source=src)
     src.close()
     sim = recording["commands"]        # the container stores the frame rate as a rational: times agree to 1 ms
+    tol = 1e-3 * _derate_slope_per_s(recording["design"], max(float(np.max(np.abs(c[2]))) for c in sim))
     assert res.phase == "done" and len(res.commands) == len(sim)
     for (t_s, ph_s, lv_s, v_s), (t_h, ph_h, lv_h, v_h) in zip(sim, res.commands):
         assert t_h == pytest.approx(t_s, abs=1e-3) and ph_h == ph_s and v_h == pytest.approx(v_s)
         # the guard integrates the coil temperature on these times: within its derate band the level
-        # moves ~(18 K/s / 10 K) per s, so 1 ms of time is < 2e-3 of a level (exact when not derating)
-        assert np.allclose(lv_h, lv_s, rtol=0, atol=2e-3)
+        # moves (heating rate / band) per s, so 1 ms of time shifts it by at most that much (exact
+        # when not derating)
+        assert np.allclose(lv_h, lv_s, rtol=0, atol=tol)
     assert np.all(_pins(backend) == 0)
 
 

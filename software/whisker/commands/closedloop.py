@@ -36,9 +36,10 @@ HW_ONLY = ("source", "which", "start", "policy", "out_log", "rest_frames", "max_
               help="[sim] Only the configurations with these many whiskers (repeatable: 8, 4, 2).")
 @click.option("--out", type=click.Path(file_okay=False), default="runs/grasp-closed", show_default=True,
               help="[sim] Folder for closed_loop.md, closed_loop.json and closed_loop_runs.csv.")
-@click.option("--open-guard", is_flag=True,
+@click.option("--open-guard/--bare-open", "open_guard", default=True, show_default=True,
               help="[sim] The open loop's levels pass through the same thermal guard as the closed loop's "
-                   "(the hardware's actuator always applies it); default: the bare paper protocol.")
+                   "(as on the hardware, whose actuator always applies it); --bare-open: the paper's protocol "
+                   "without a guard (a simulator-only reference).")
 @click.option("--early-contact", type=click.Choice(["abort", "continue"]), default="abort", show_default=True,
               help="A whisker touched before any coil is driven: abort (fail safe) or log it and grasp anyway.")
 @click.option("--design", "design_file", type=click.Path(dir_okay=False), default=None,
@@ -86,7 +87,8 @@ def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guar
     \b
     --backend sim (default): grasp the scene's objects open loop (the paper: 3 V, lift, hope) and
       closed loop (camera -> tracker -> states -> controller) on the same placements in the
-      simulator, and write the paired table (docs/states.md).
+      simulator, both through the thermal guard (--bare-open: the open loop without it), and write
+      the paired table (docs/states.md).
     --backend gpio|mock: one closed-loop grasp on the hardware: --source frames -> tracker -> the same
       controller -> the coils (thermal guard, off on every exit) and the arm (hand-held prompts).
       A lost marker, dropped frames, contact before actuation, a thermal cut, no frame for
@@ -109,13 +111,15 @@ def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guar
         return run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard)
     extra = sorted(given & set(SIM_ONLY))
     if extra:
-        fail(f"closedloop: --{extra[0].replace('scene_path', 'scene').replace('counts', 'whiskers').replace('_', '-')} "
+        name = (extra[0].replace('scene_path', 'scene').replace('counts', 'whiskers')
+                .replace('open_guard', 'open-guard/--bare-open').replace('_', '-'))
+        fail(f"closedloop: --{name} "
              "is for --backend sim only")
     fps_given = ctx.get_parameter_source("fps") != ParameterSource.DEFAULT
     sys.exit(run_hardware(backend, fps, fps_given, early_contact, quiet, **hw))
 
 
-def run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard=False):
+def run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard=True):
     from tqdm import tqdm
 
     from whisker.files import atomic_write_text

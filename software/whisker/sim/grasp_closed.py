@@ -43,9 +43,10 @@ def _wilcoxon(x, y) -> float:
 
 
 def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, configs=None, objects=None,
-                      progress=None, params: dict | None = None, open_guard: bool = False) -> dict:
-    """See the module doc. `open_guard`: the open loop's levels pass through the same thermal guard
-    as the closed loop's (the hardware's actuator always applies one); default: the bare protocol."""
+                      progress=None, params: dict | None = None, open_guard: bool = True) -> dict:
+    """See the module doc. `open_guard` (default): the open loop's levels pass through the same thermal
+    guard as the closed loop's, as on the hardware, whose actuator always applies one; False: the bare
+    paper protocol (a simulator-only reference)."""
     from whisker.grasp_control import GraspController
     from whisker.guard import ThermalGuard
     from whisker.sim.kinematics import whisker_body
@@ -124,7 +125,10 @@ def closed_loop_markdown(tab: dict) -> str:
     """The table beside the paper's open-loop numbers (whisker.sim.experiments.PAPER_GRASP)."""
     from whisker.sim.experiments import PAPER_GRASP
 
-    out = [f"Open loop vs closed loop, {tab['attempts']} common placements per cell, camera {tab['fps']:g} frames/s. "
+    which = ("both through the same thermal guard" if tab.get("open_guard", True)
+             else "open loop = the bare paper protocol without a guard, closed loop through the thermal guard")
+    out = [f"Open loop vs closed loop ({which}), {tab['attempts']} common placements per cell, "
+           f"camera {tab['fps']:g} frames/s. "
            "success %: sim open / sim closed / paper (open loop); W-L: placements closed holds and open drops, and "
            "the reverse (exact McNemar p); energy: coil Joule heat per attempt and per successful grasp (J), "
            "paired Wilcoxon p per attempt; peak: hottest coil (C); grip: start to lift (s); aborts: fail-safe stops.",
@@ -169,5 +173,5 @@ def closed_loop_json(tab: dict) -> str:
         if isinstance(v, tuple):
             return [clean(x) for x in v]
         return v
-    return json.dumps({"fps": tab["fps"], "attempts": tab["attempts"],
+    return json.dumps({"fps": tab["fps"], "attempts": tab["attempts"], "open_guard": tab.get("open_guard", True),
                        "rows": [{k: clean(v) for k, v in r.items()} for r in tab["rows"]]}, indent=1)
