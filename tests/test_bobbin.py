@@ -75,16 +75,16 @@ def test_turns_are_what_fits_the_window(d):
     factor, and the resistance is theirs: one source for the force model, the driver and the BOM."""
     from whisker import former
 
-    w = bobbin.winding(d)
+    w = coil_calc.winding(d)
     a1, a2, length = former.window(d)
     a_cu = math.pi * d.coil.wire_diameter ** 2 / 4
-    assert w["turns"] == d.coil.turns == w["max_turns"] == math.floor(d.winding.fill_factor * (a2 - a1) * length / a_cu)
-    assert w["design_turns_fit"] is True
-    assert d.coil.resistance == pytest.approx(w["resistance_ohm"], abs=1e-4)
-    assert w["resistance_ohm"] == pytest.approx(
-        coil_calc.ohm_per_m(d.coil.wire_diameter) * w["wire_length_mm"] / 1000, rel=1e-9)
-    paper = bobbin.winding(default_design("coil.turns=600"))
-    assert paper["design_turns_fit"] is False                     # the paper's 600 do not fit (issue 21)
+    assert w.turns == d.coil.turns == w.max_turns_at_fill == math.floor(d.winding.fill_factor * (a2 - a1) * length / a_cu)
+    assert w.fits is True
+    assert d.coil.resistance == pytest.approx(w.resistance_ohm, abs=1e-4)
+    assert w.resistance_ohm == pytest.approx(
+        coil_calc.ohm_per_m(d.coil.wire_diameter) * w.wire_length_mm / 1000, rel=1e-9)
+    paper = coil_calc.winding(default_design("coil.turns=600"))
+    assert paper.fits is False                     # the paper's 600 do not fit (issue 21)
 
 
 def test_bobbin_walls_for_resin(d, mesh):
@@ -118,11 +118,11 @@ def test_bom_orders_the_wire_the_bobbin_takes_and_every_printed_part(d):
     from whisker import bom
 
     rows = {r.item: r for r in bom.make_bom(d)}
-    w = bobbin.winding(d)
+    w = coil_calc.winding(d)
     n, b = d.whiskers.count, d.bom
-    want = n * (w["wire_length_mm"] + 2 * b.coil_lead_length) * (1 + b.wire_waste) / 1000
+    want = n * (w.wire_length_mm + 2 * b.coil_lead_length) * (1 + b.wire_waste) / 1000
     assert rows["magnet_wire"].value == pytest.approx(want, abs=0.05)
-    assert rows["coil"].specification.startswith(f"{w['turns']} turns")
+    assert rows["coil"].specification.startswith(f"{w.turns} turns")
     assert all(f"print_{p}" in rows for p in bom.PRINTED_PARTS) and rows["bobbin"].value == n
     assert rows["insert_m3"].value == d.mount.mounting_hole_count + d.adapter.coupling_count and "ruthex" in rows["insert_m3"].specification
 

@@ -69,15 +69,6 @@ def winding_envelope(d: Design) -> cq.Shape:
     return outer.cut(radial_cylinder(L["core"][0] - 1, L["core"][1] + 1, d.coil.inner_diameter, d.coil_axis_z, 0.0))
 
 
-def winding(d: Design) -> dict:
-    """The design's winding on this former (whisker.coil.winding reads the former's window): turns,
-    20 C resistance (ohm), wire length (mm), layers, and whether the design's coil.turns fit."""
-    w = coil_calc.winding(d)
-    return {"turns": w.turns, "resistance_ohm": w.resistance_ohm, "wire_length_mm": w.wire_length_mm,
-            "layers": w.layers, "design_turns": d.coil.turns, "design_turns_fit": w.fits,
-            "max_turns": w.max_turns_at_fill, "window_mm2": w.window_mm2}
-
-
 def outer_face_radius(d: Design) -> float:
     """Radius (mm) of the bobbin's outer flange face at rest."""
     return layout(d)["outer_x"]
