@@ -21,6 +21,17 @@ import os
 BAD_INPUT = 2
 ENVIRONMENT = 1
 
+
+class BadInput(RuntimeError):
+    """Base of the package's non-ValueError errors that are the user's input (a recording folder that
+    cannot be written or read, ...): status 2. Defined here, at the bottom, so this module needs none of
+    the modules that raise it."""
+
+
+class EnvironmentFault(RuntimeError):
+    """Base of the errors that are the machine's, not the input's (a camera that cannot be opened, ...):
+    status 1."""
+
 #: errno -> (exit status, what to do)
 _OS_HINTS = {
     errno.ENOENT: (BAD_INPUT, "check the path"),
@@ -50,9 +61,6 @@ def _one_line(text: str) -> str:
 
 def explain(err: BaseException) -> tuple[int, str]:
     """(exit status, one line) for an exception raised by a command."""
-    from whisker.camera import SourceError
-    from whisker.recording import RecordingError
-
     if isinstance(err, OSError):
         code, hint = _OS_HINTS.get(err.errno, (ENVIRONMENT, "check the path and the disk"))
         where = err.filename if err.filename is not None else ""
@@ -64,9 +72,9 @@ def explain(err: BaseException) -> tuple[int, str]:
         return BAD_INPUT, _one_line(f"input is not UTF-8 text ({err}); give a text file saved as UTF-8")
     if isinstance(err, MemoryError):
         return ENVIRONMENT, "out of memory: make the job smaller (fewer steps, samples or frames)"
-    if isinstance(err, (ValueError, RecordingError)):
+    if isinstance(err, (ValueError, BadInput)):
         return BAD_INPUT, _one_line(str(err) or type(err).__name__)
-    if isinstance(err, SourceError):
+    if isinstance(err, EnvironmentFault):
         return ENVIRONMENT, _one_line(str(err))
     if type(err).__name__ in ("MissingModule", "SimulationError"):
         return ENVIRONMENT, _one_line(str(err))
