@@ -22,15 +22,13 @@ BAD_INPUT = 2
 ENVIRONMENT = 1
 
 
+# Bases defined here, at the bottom, so that explain() needs none of the modules that raise them.
 class BadInput(RuntimeError):
-    """Base of the package's non-ValueError errors that are the user's input (a recording folder that
-    cannot be written or read, ...): status 2. Defined here, at the bottom, so this module needs none of
-    the modules that raise it."""
+    """The user's input, though not a ValueError (a recording folder that cannot be used): status 2."""
 
 
 class EnvironmentFault(RuntimeError):
-    """Base of the errors that are the machine's, not the input's (a camera that cannot be opened, ...):
-    status 1."""
+    """The machine's fault, not the input's (a camera that cannot be opened): status 1."""
 
 #: errno -> (exit status, what to do)
 _OS_HINTS = {

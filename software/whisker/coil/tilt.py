@@ -5,14 +5,8 @@ the wire ([coil] wire_diameter, [winding] enamel_grade), the turns ([coil] turns
 ([winding] fill_factor), the measured resistance ([coil] resistance), the magnet and gap, and the
 membrane's rotational stiffness ([mechanics]).
 
-Material constants (sources):
-- copper resistivity at 20 C: 1/58 ohm*mm^2/m = 0.017241 (IEC 60028, annealed copper standard);
-  temperature coefficient 0.00393 /K at 20 C (IEC 60028); density 8.89 g/cm^3 (IEC 60028);
-  specific heat 0.385 J/(g K).
-- enamel build: IEC 60317-0-1 overall diameters; for 0.100 mm wire grade 1 is 0.108-0.117 mm
-  (Elektrisola's table), grade 2 up to 0.125, grade 3 up to 0.132; the mid-range relative increase
-  at 0.1 mm (12.5 / 19.5 / 26.5 %) is scaled as d^-0.3 for other sizes (thin wires carry relatively
-  more enamel). Check your wire's datasheet if it matters.
+Material constants (copper, enamel build) and their sources: :mod:`whisker.design.wire`.
+Formula sources:
 - Wheeler's multilayer inductance formula: L = 31.6 N^2 r^2 / (6 r + 9 l + 10 c) uH with r the mean
   radius, l the length and c the winding depth in metres (Wheeler, Proc. IRE 16, 1928).
 
