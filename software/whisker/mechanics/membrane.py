@@ -53,7 +53,7 @@ if TYPE_CHECKING:  # pragma: no cover
 #: Bump when the model changes what it computes: old cache entries are then ignored.
 MODEL_VERSION = 1
 #: Default mesh: largest triangle edge, mm (the knee of benchmarks/results/membrane.md).
-DEFAULT_MESH_SIZE_MM = 1.5
+DEFAULT_MESH_SIZE_MM = 3.0
 #: The rods' circles are cut into segments of mesh_size / ROD_REFINEMENT (grades the mesh to the rods).
 ROD_REFINEMENT = 4.0
 #: The thinnest layer: layers are at most this many times thinner than the rods' segments.
@@ -247,18 +247,68 @@ def lookup(d: "Design", mesh_size_mm: float = DEFAULT_MESH_SIZE_MM, compute: boo
     return entry
 
 
+_MEMO: dict = {}
+
+
+def _entry(design: "Design") -> dict:
+    """lookup() memoised per design digest within the process (equilibria call it in loops)."""
+    key = design.digest()
+    if key not in _MEMO:
+        _MEMO[key] = lookup(design)
+    return _MEMO[key]
+
+
 def stiffness_matrix(design: "Design") -> np.ndarray:
-    """N x N tilt stiffness matrix of the design's membrane (retraction positive), N mm/rad; cached."""
-    return np.array(lookup(design)["matrix"])
+    """N x N tilt stiffness matrix of the design's membrane (retraction positive), N mm/rad; cached.
+
+    M = K theta: K[i, j] is the moment on whisker i per radian of whisker j, every other rod motion free.
+    """
+    return np.array(_entry(design)["matrix"])
+
+
+def driven_stiffness_Nmm_per_rad(design: "Design", driven=None) -> float:
+    """Per-whisker stiffness when the whiskers in `driven` (indices; None = all) get the same moment M
+    and the others none: M / mean tilt of the driven ones = 1 / mean_i sum_j C[i, j] (i, j driven),
+    C = K^-1, N mm/rad."""
+    K = stiffness_matrix(design)
+    idx = np.arange(len(K)) if driven is None else np.asarray(sorted(set(int(i) for i in driven)), dtype=int)
+    if len(idx) == 0 or idx.min() < 0 or idx.max() >= len(K):
+        raise MembraneError(f"driven whiskers {driven!r}: indices must be in 0..{len(K) - 1}")
+    C = np.linalg.inv(K)
+    return float(1.0 / np.mean(C[np.ix_(idx, idx)].sum(axis=1)))
 
 
 def rotational_stiffness_Nmm_per_rad(design: "Design") -> float:
-    """Per-whisker rotational stiffness of the design's membrane, N mm/rad; cached.
+    """Per-whisker rotational stiffness of the design's membrane, N mm/rad (the model's; cached).
 
-    1 / mean(diag(K^-1)): one whisker driven, its neighbours free to follow (the model's mean over
-    the whiskers, which differ only where the polygon's corners sit unevenly around them).
+    Every whisker driven by the same moment - the grasp, `whisker calibrate stiffness`'s voltage
+    steps and the authors' actuated frame all drive them together: M / theta = mean row sum of K.
+    One whisker driven alone meets more resistance (:func:`single_whisker_stiffness_Nmm_per_rad`):
+    its neighbours hold it back; driven together the whole inner membrane turns with them.
     """
-    return float(lookup(design)["single_Nmm_per_rad"])
+    return driven_stiffness_Nmm_per_rad(design, None)
+
+
+def single_whisker_stiffness_Nmm_per_rad(design: "Design") -> float:
+    """One whisker driven, its neighbours free and undriven: 1 / mean(diag(K^-1)), N mm/rad."""
+    return float(1.0 / np.mean(np.diag(np.linalg.inv(stiffness_matrix(design)))))
+
+
+def design_stiffness_Nmm_per_rad(design: "Design") -> float:
+    """``mechanics.rotational_stiffness`` resolved: the number in the design (a calibration or an
+    explicit override), or for "auto" the model's :func:`rotational_stiffness_Nmm_per_rad`, N mm/rad.
+    Every module that needs the stiffness reads it through here."""
+    v = design.mechanics.rotational_stiffness
+    return float(v) if v != "auto" else rotational_stiffness_Nmm_per_rad(design)
+
+
+def stiffness_source(design: "Design") -> str:
+    """Where design_stiffness_Nmm_per_rad's value comes from, for reports."""
+    if design.mechanics.rotational_stiffness != "auto":
+        return "file (mechanics.rotational_stiffness)"
+    e = _entry(design)
+    return (f"membrane model ({e['inputs']['geometry']['thickness']:g} mm {design.membrane.material}, "
+            f"mesh {e['mesh_size_mm']:g} mm, key {e['key']})")
 
 
 def coupling(design: "Design") -> np.ndarray:
@@ -276,3 +326,20 @@ def ship(designs, path: Path | None = None, mesh_size_mm: float = DEFAULT_MESH_S
         e = lookup(d, mesh_size_mm)
         table[e["key"]] = e
     return atomic_write_json(path or shipped_path(), table)
+
+
+#: The designs whose results ship in hw/materials/membrane_stiffness.json: the default design, and the
+#: paper's 16 mm membrane (the comparison row of docs/membrane.md).
+SHIPPED_OVERRIDES: tuple[tuple[str, ...], ...] = ((), ("membrane.inscribed_radius=16",))
+
+
+def main() -> None:  # pragma: no cover - `make membrane`
+    """Compute (or read from the cache) and write the shipped table."""
+    from whisker.design import default_design
+
+    path = ship([default_design(*o) for o in SHIPPED_OVERRIDES])
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
