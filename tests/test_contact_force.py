@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from whisker.sensing.contact_force import ForceModel, tip_force
 from whisker.design import load_design
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
 
 DESIGN = load_design()
 MODEL = ForceModel.from_design(DESIGN)
@@ -57,7 +58,7 @@ def test_small_deflection_force_is_stiffness_times_tilt_over_the_tip_lever(dx, d
     r = math.hypot(dx, dy)
     f = tip_force(MODEL, np.array([dx]), np.array([dy]))
     theta = math.asin(r * DESIGN.mm_per_px / DESIGN.l_l)
-    want = 1e3 * DESIGN.mechanics.rotational_stiffness * theta / (DESIGN.l_u * math.cos(theta))
+    want = 1e3 * design_stiffness_Nmm_per_rad(DESIGN) * theta / (DESIGN.l_u * math.cos(theta))
     assert f.force_mN[0] == pytest.approx(want, rel=1e-9, abs=1e-12)
     # the tip (and the push on it) moves opposite the marker: the force is anti-parallel to the
     # marker's displacement in the sensor frame
@@ -131,7 +132,7 @@ def test_live_pipeline_streams_the_force_of_known_tilts_and_draws_it():
         live = pipe.step(f)
         rec = live.record()
         theta = np.radians(src.tilts[f.index])
-        want = 1e3 * DESIGN.mechanics.rotational_stiffness * theta / (DESIGN.l_u * np.cos(theta))
+        want = 1e3 * design_stiffness_Nmm_per_rad(DESIGN) * theta / (DESIGN.l_u * np.cos(theta))
         got = np.array(rec["force_mN"])
         assert np.all(np.abs(got - want) < 0.08 * want + 0.1), (got, want)
         big = want > 0.5
