@@ -172,7 +172,7 @@ def test_missing_material_field_leaves_the_cache_and_the_design_refuses(tmp_path
 
 
 def test_unknown_material_names_the_known_ones():
-    with pytest.raises(MaterialError, match="ecoflex_00_30"):
+    with pytest.raises(M.MembraneError, match="known: ecoflex_00_30"):
         M.lookup(default_design('membrane.material="Dragon Skin 10"'))
 
 
@@ -188,3 +188,31 @@ def test_stiffness_value_in_the_file_is_validated():
         default_design("mechanics.rotational_stiffness=-1")
     with pytest.raises(DesignError, match="rotational_stiffness"):
         default_design('mechanics.rotational_stiffness="soft"')
+
+
+# ---- the docs' numbers come from the model ----------------------------------------------------
+
+def test_docs_state_the_models_numbers():
+    """docs/coil.md and docs/membrane.md quote the default design's stiffness and pull-in: they must be
+    the model's (to the digits written), so a model change that leaves the docs behind fails here."""
+    import re
+    from pathlib import Path
+
+    from whisker.coil import pull_in, resistance_ohm
+
+    root = Path(__file__).resolve().parents[1]
+    d = default_design()
+    k_all, k_one = M.rotational_stiffness_Nmm_per_rad(d), M.single_whisker_stiffness_Nmm_per_rad(d)
+    v_pull = pull_in(d)[0] * resistance_ohm(d)
+    coil_md = re.sub(r"\s+", " ", (root / "docs" / "coil.md").read_text())
+    m = re.search(r"\*\*([\d.]+) N mm/rad\*\* per whisker with every whisker driven together \(([\d.]+) for one", coil_md)
+    assert m and float(m[1]) == round(k_all, 3) and float(m[2]) == round(k_one, 3)
+    m = re.search(r"\(([\d.]+) N mm/rad, every whisker driven\) \| none: pull-in above ([\d.]+) V", coil_md)
+    assert m and float(m[1]) == round(k_all, 3) and float(m[2]) == round(v_pull, 2)
+    mem_md = re.sub(r"\s+", " ", (root / "docs" / "membrane.md").read_text())
+    m = re.search(r"every whisker driven together: \*\*([\d.]+) N mm/rad\*\*, one whisker alone \*\*([\d.]+) N mm/rad\*\*",
+                  mem_md)
+    assert m and float(m[1]) == round(k_all, 3) and float(m[2]) == round(k_one, 3)
+    C = M.coupling(d)
+    m = re.search(r"tilts its neighbours by ([\d.]+), ([\d.]+), ([\d.]+) and ([\d.]+) of its own tilt", mem_md)
+    assert m and [float(x) for x in m.groups()] == [round(float(C[j, 0]), 3) for j in range(1, 5)]
