@@ -243,3 +243,31 @@ def test_docs_convergence_table_is_the_benchmarks():
         assert int(m[1]) == int(r["layers"]) and int(m[2].replace(" ", "")) == int(r["unknowns"])
         assert float(m[3]) == round(float(r["k_all_Nmm_per_rad"]), 4)
     assert re.search(rf"\*\*{M.DEFAULT_MESH_SIZE_MM:.1f} \(default\)\*\*", doc)
+
+
+def test_cli_refuses_a_membrane_too_thin_to_mesh_in_one_line_and_writes_nothing(tmp_path):
+    from conftest import run_cli
+
+    out = tmp_path / "coil"
+    out.mkdir()
+    (out / "report.txt").write_text("the previous report")
+    res = run_cli("coil", "report", "--set", "membrane.thickness=0.01", "--out", str(out))
+    assert res.returncode == 2, res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1 and "too thin to mesh" in res.stderr
+    assert [p.name for p in out.iterdir()] == ["report.txt"] and (out / "report.txt").read_text() == "the previous report"
+
+
+def test_core_install_without_the_fem_extra_says_what_to_install(tmp_path, monkeypatch):
+    """The Pi's core install: the default design resolves from the shipped table; another membrane
+    geometry says in one line which extra computes it (or to give the number)."""
+    import sys
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.setitem(sys.modules, "skfem", None)      # import skfem -> ModuleNotFoundError
+    M._MEMO.clear()
+    assert M.design_stiffness_Nmm_per_rad(default_design()) > 0
+    with pytest.raises(M.MembraneError, match=r"pip install 'whisker-array\[fem\]'") as err:
+        M.design_stiffness_Nmm_per_rad(default_design("membrane.thickness=3.3"))
+    assert "\n" not in str(err.value) and "as a number" in str(err.value)
+    assert M.design_stiffness_Nmm_per_rad(default_design("membrane.thickness=3.3", "mechanics.rotational_stiffness=0.9")) == 0.9
+    M._MEMO.clear()
