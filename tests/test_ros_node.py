@@ -145,7 +145,7 @@ def test_tilts_agree_with_the_tracker_on_the_same_frames(ros):
     from whisker.design import load_design
     import cv2
 
-    from whisker.tracking import Tracker
+    from whisker.vision.tracking import Tracker
 
     got = ros["got"]
     design = load_design(None, list(RATING))

@@ -27,18 +27,14 @@ from __future__ import annotations
 import math
 
 import cadquery as cq
-import numpy as np
 
-from whisker.design import fasteners
-from whisker.design import sizing
-from whisker.design import Design
+from whisker.design import Design, fasteners, flanges
 
-from whisker.design import flanges
-
-from . import extras
 from .shapes import cut_all, cylinder, polar_xy
 
+# The plates' numbers (levels, radii, screw angles) without CadQuery: whisker.ros.urdf reads them too.
 from .adapter_layout import CABLE_DEG, _angles, _layout, _min_gap, _points, _stock_thickness, layout, sensor_angles  # noqa: F401
+
 
 def adapter_tools(d: Design, preset: str | None = None) -> dict[str, cq.Shape]:
     """The named solids cut from the adapter (under the mount)."""

@@ -12,8 +12,7 @@ import math
 
 import numpy as np
 
-from whisker import fasteners, flanges, sizing
-from whisker.design import Design
+from whisker.design import Design, fasteners, flanges, sizing
 
 from . import extras
 

@@ -4,8 +4,8 @@ Topics (relative names, so a namespace or remapping applies; types and units in 
 
 - ``joint_states`` (sensor_msgs/JointState): joint ``whisker_<i>`` per whisker, position = radial tilt
   of the whisker at its base, rad (+ = retraction, tip towards the centre: the URDF joint's sense),
-  effort = the moment of the estimated tip force about that joint's axis, N m (whisker.contact_force).
-- ``~/states`` (std_msgs/Int8MultiArray): per whisker 0 rest, 1 contact, 2 dynamic (whisker.states;
+  effort = the moment of the estimated tip force about that joint's axis, N m (whisker.sensing.contact_force).
+- ``~/states`` (std_msgs/Int8MultiArray): per whisker 0 rest, 1 contact, 2 dynamic (whisker.sensing.states;
   airflow and other motion show as dynamic).
 - ``~/whisker_<i>/wrench`` (geometry_msgs/WrenchStamped, frame ``whisker_<i>_base``: the pivot, x
   radially out): the estimated horizontal tip force, N, and its moment about the pivot, N m.
@@ -19,13 +19,13 @@ Topics (relative names, so a namespace or remapping applies; types and units in 
 - ``robot_description`` (std_msgs/String, transient local): the URDF (whisker.ros.urdf);
   ``/tf_static`` too when tf2_msgs is importable (a ROS 2 installation; the wheels have no tf2_msgs).
 
-Coil commands, every one through the same whisker.actuation.Actuator (ratings, thermal guard,
+Coil commands, every one through the same whisker.drive.actuation.Actuator (ratings, thermal guard,
 watchdog, off on exit) as `whisker actuate`; a refusal answers with the same one-line reason:
 
 - parameter ``levels`` (double array, one signed PWM duty per whisker; set with the standard
   ``~/set_parameters`` service, e.g. ``ros2 param set /whisker levels "[0.5, 0, ...]"``);
 - ``~/run_sequence`` (std_srvs/Trigger): the sequence named by parameter ``sequence``;
-- ``~/grasp`` / ``~/release`` (std_srvs/Trigger): the closed-loop grasp (whisker.grasp_control) /
+- ``~/grasp`` / ``~/release`` (std_srvs/Trigger): the closed-loop grasp (whisker.sensing.grasp_control) /
   coils off and any grasp or sequence ended;
 - ``~/sim_contact`` (std_srvs/SetBool, simulator only): an object pushes whiskers
   ``sim_contact.whiskers`` by ``sim_contact.reach_deg`` (true) or leaves (false).
@@ -123,9 +123,9 @@ class SensorNode(Node):
         return load_design(self.p("design_file") or None, sets)
 
     def _build_pipeline(self) -> None:
-        from whisker.actuation import open_actuator
-        from whisker.contact_force import ForceModel
-        from whisker.tracking import Tracker
+        from whisker.drive.actuation import open_actuator
+        from whisker.sensing.contact_force import ForceModel
+        from whisker.vision.tracking import Tracker
 
         d = self.design
         source, backend = self.p("source"), self.p("backend")
@@ -144,18 +144,18 @@ class SensorNode(Node):
         self.tracker = Tracker(d, self.p("tracker"))
         fps = float(self.p("fps"))
         if source == "sim":
-            from whisker.recording import SimCamera
+            from whisker.data.recording import SimCamera
 
             self.src = SimCamera(d, self.sim, fps=fps)
         else:
-            from whisker.camera import open_source
+            from whisker.vision.camera import open_source
 
             self.src = open_source(source, d)
         self.act = open_actuator(d, backend, policy=self.p("policy"), backend_object=self.sim)
         self.force_model = ForceModel.from_design(d)
         self.expected_px = None
         try:
-            from whisker.sim.closed_loop import free_closing_px
+            from whisker.sim.experiments.closed_loop import free_closing_px
 
             self.expected_px = free_closing_px(d)     # own-actuation displacement for the estimator
         except ImportError:
@@ -226,7 +226,7 @@ class SensorNode(Node):
         return str(err).splitlines()[0] if str(err) else type(err).__name__
 
     def _on_set(self, params) -> SetParametersResult:
-        from whisker.guard import RatingError
+        from whisker.drive.guard import RatingError
 
         for prm in params:
             if prm.name == "levels":
@@ -263,7 +263,7 @@ class SensorNode(Node):
         return response
 
     def _srv_sequence(self, request, response):
-        from whisker.coil_sequences import SequenceRunner, load_sequence
+        from whisker.drive.sequences import SequenceRunner, load_sequence
 
         try:
             steps = load_sequence(self.design, self.p("sequence"))
@@ -294,20 +294,20 @@ class SensorNode(Node):
                 self.act.neutral()
 
     def _srv_grasp(self, request, response):
-        from whisker.actuation import configuration
-        from whisker.grasp_control import GraspController
-        from whisker.guard import RatingError, ThermalGuard
-        from whisker.rig import handheld_params
+        from whisker.drive.actuation import configuration
+        from whisker.sensing.grasp_control import GraspController
+        from whisker.drive.guard import RatingError, ThermalGuard
+        from whisker.sensing.rig import handheld_params
 
         try:
             if self.expected_px is None:
-                raise RuntimeError("the grasp needs the free-closing model (whisker.sim.closed_loop)")
+                raise RuntimeError("the grasp needs the free-closing model (whisker.sim.experiments.closed_loop)")
             active = list(map(int, np.flatnonzero(configuration(self.n, self.p("grasp.config")))))
             hold = float(self.p("grasp.hold_s"))
             params = handheld_params(self.design, fps=float(self.p("fps")), descend_mm=float(self.p("grasp.descend_mm")),
                                      descend_s=float(self.p("grasp.descend_s")), lift_mm=float(self.p("grasp.lift_mm")),
                                      lift_s=float(self.p("grasp.lift_s")), hold_s=hold if hold > 0 else math.inf)
-            from whisker.guard import check_levels
+            from whisker.drive.guard import check_levels
 
             check_levels(self.design, np.where(np.isin(np.arange(self.n), active), params.full_level, 0.0))
             ctl = GraspController(self.n, active, params, self.expected_px, guard=ThermalGuard(self.design, clock=lambda: 0.0))
@@ -342,9 +342,9 @@ class SensorNode(Node):
 
     # -- the frame loop -------------------------------------------------------------------------
     def _run(self) -> None:
-        from whisker.contact_force import tip_force
-        from whisker.live import LivePipeline
-        from whisker.states import make_estimator
+        from whisker.sensing.contact_force import tip_force
+        from whisker.sensing.live import LivePipeline
+        from whisker.sensing.states import make_estimator
 
         try:
             frames = iter(self.src)
@@ -398,7 +398,7 @@ class SensorNode(Node):
         return out
 
     def _grasp_step(self, frame, live) -> None:
-        from whisker.guard import RatingError
+        from whisker.drive.guard import RatingError
 
         with self._lock:
             ctl = self.grasp
@@ -530,7 +530,7 @@ def _quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float, fl
 def spin(design=None, overrides: dict | None = None, args=None, duration_s: float | None = None,
          on_ready=None) -> int:
     """Init ROS, run the node until Ctrl-C / SIGTERM (or `duration_s`), coils off at the end."""
-    from whisker.actuation import deenergise_on_signals
+    from whisker.drive.actuation import deenergise_on_signals
 
     rclpy.init(args=args)
     node = None

@@ -1,11 +1,11 @@
 """A simulated object touching the whiskers, for the node on the simulator (`~/sim_contact`).
 
-The simulator's actuation backend (whisker.sim.backend.SimBackend) moves the whiskers under gravity
-and their coils only. `ContactBackend` adds what whisker.sim.state_sequences calls a contact: a
+The simulator's actuation backend (whisker.drive.simulated.SimBackend) moves the whiskers under gravity
+and their coils only. `ContactBackend` adds what whisker.sim.experiments.state_sequences calls a contact: a
 one-sided stiff wall (50 x the membrane's stiffness, critically damped at half its rate) that
 comes in along a direction and pushes the touched whiskers' tips to a set tilt, so that the
 camera sees a contact that no coil caused. Nothing else changes: the same integrator
-(whisker.sim.kinematics.step_free), gravity and magnetic torques, and the same clock.
+(whisker.coil.kinematics.step_free), gravity and magnetic torques, and the same clock.
 """
 
 from __future__ import annotations
@@ -14,14 +14,14 @@ import math
 
 import numpy as np
 
-from whisker.sim.backend import SimBackend
-from whisker.sim.kinematics import gravity_torque, magnetic_torque, step_free
+from whisker.coil.kinematics import gravity_torque, magnetic_torque, step_free
+from whisker.drive.simulated import SimBackend
 
 
 class ContactBackend(SimBackend):
     """SimBackend plus an optional wall contact (see the module docstring)."""
 
-    WALL_STIFFNESS = 50.0     # x the membrane's rotational stiffness (whisker.sim.state_sequences)
+    WALL_STIFFNESS = 50.0     # x the membrane's rotational stiffness (whisker.sim.experiments.state_sequences)
 
     def __init__(self, design, **kw):
         super().__init__(design, **kw)
@@ -44,14 +44,14 @@ class ContactBackend(SimBackend):
     def advance(self, seconds: float) -> None:
         if not self.touch.any():
             return super().advance(seconds)
-        from whisker.sim.contract import current_A
+        from whisker.drive.guard import coil_current_A
 
         steps = int(seconds / self.dt)
         if steps <= 0:
             return
         k = self.WALL_STIFFNESS * self.body.stiffness
         c = 2 * 0.5 * math.sqrt(k * self.body.inertia_kgm2)
-        current = current_A(self.design, self.levels * self.volts_full_scale)
+        current = np.asarray(coil_current_A(self.design, self.levels * self.volts_full_scale, 20.0), dtype=float)
         for _ in range(steps):
             tau = gravity_torque(self.body, self.theta, self.facing)
             if np.any(current != 0):

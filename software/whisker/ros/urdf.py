@@ -15,7 +15,7 @@ membrane's lower face, z up towards the tips):
   the sensor axis, z = 0 on the membrane's lower face.
 - ``<prefix>ring``: the whisker ring, the plane of the pivots (z = design.pivot_z, mid-membrane).
 - ``<prefix>camera_optical``: the camera's optical frame (ROS REP 103 optical convention: z along the
-  view, up the sensor axis; x = image right, y = image down, from whisker.geometry.camera_rotation).
+  view, up the sensor axis; x = image right, y = image down, from whisker.vision.geometry.camera_rotation).
 - ``<prefix><i>_base``: whisker i's pivot, x radially outward, z up.
 - joint ``<prefix><i>`` (revolute about the base's -y): the whisker's radial tilt, rad, + = retraction
   (tip towards the centre, the direction a + coil level drives it), limited to whiskers.max_deflection_deg;
@@ -61,8 +61,8 @@ class Frames:
 
 def frames(design, preset: str | None = None) -> Frames:
     """The URDF's levels from the design and the adapter's layout (`preset`: adapter.preset override)."""
-    from whisker import sizing
     from whisker.cad.adapter_layout import layout
+    from whisker.design import sizing
 
     L = layout(design, preset)
     levels = sizing.mount_levels(design)
@@ -91,7 +91,7 @@ def rpy_from_matrix(R) -> tuple[float, float, float]:
 
 
 def _f(x: float) -> str:
-    return f"{x:.6g}"
+    return f"{x:.10g}"
 
 
 def _origin(xyz_mm=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> str:
@@ -120,7 +120,7 @@ def joint_names(design, prefix: str = "whisker_") -> list[str]:
 
 def urdf(design, *, prefix: str = "whisker_", preset: str | None = None, name: str = "whisker_array") -> str:
     """The URDF (XML text) of the sensor of `design` (see the module docstring for the frames)."""
-    from whisker.geometry import camera_rotation
+    from whisker.vision.geometry import camera_rotation
 
     F = frames(design, preset)
     p = prefix
