@@ -80,3 +80,29 @@ def test_rpy_round_trip(rpy):
     Ry = np.array([[math.cos(p), 0, math.sin(p)], [0, 1, 0], [-math.sin(p), 0, math.cos(p)]])
     Rz = np.array([[math.cos(y), -math.sin(y), 0], [math.sin(y), math.cos(y), 0], [0, 0, 1]])
     np.testing.assert_allclose(rpy_from_matrix(Rz @ Ry @ Rx), rpy, atol=1e-12)
+
+
+def test_without_the_extra_one_line_names_the_install():
+    """rclpy missing (None in sys.modules: the import fails as if the wheels were not installed)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; sys.modules['rclpy'] = None\n"
+            "from whisker.cli import main; main(['ros', '--source', 'sim', '--backend', 'sim', '--duration', '1'])")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 1
+    lines = res.stderr.strip().splitlines()
+    assert lines == ["whisker ros needs rclpy from the [ros] extra: pip install 'whisker-array[ros]'"], res.stderr
+
+
+def test_cli_writes_the_urdf_and_the_frames_picture_without_ros(tmp_path):
+    from conftest import run_cli
+
+    res = run_cli("ros", "--urdf", str(tmp_path / "s.urdf"), "--frames-png", str(tmp_path / "f.png"),
+                  "--prefix", "left_", "--set", "whiskers.count=4")
+    assert res.returncode == 0, res.stderr
+    robot = URDF.from_xml_string((tmp_path / "s.urdf").read_text())
+    assert [j.name for j in robot.joints if j.type == "revolute"] == [f"left_{i}" for i in range(4)]
+    assert (tmp_path / "f.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    bad = run_cli("ros", "--urdf", "-", "--prefix", "9x")
+    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "--prefix" in bad.stderr
