@@ -57,9 +57,12 @@ def wheel(tmp_path_factory) -> Path:
     """The wheel, built from a copy of the checkout (no build/ or egg-info left in the repository)."""
     base = tmp_path_factory.mktemp("wheel")
     src = base / "src"
-    shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(
-        ".git", ".venv*", ".ci-*", "exports*", "build", "dist", "runs", "*.egg-info", "__pycache__",
-        ".pytest_cache", ".hypothesis", "benchmarks"))
+    skip = shutil.ignore_patterns(".git", ".venv*", ".ci-*", "exports*", "dist", "runs", "*.egg-info", "__pycache__",
+                                  ".pytest_cache", ".hypothesis", "benchmarks")
+
+    def ignore(folder, names):   # build/ only at the root: software/whisker/commands/build is a package
+        return set(skip(folder, names)) | ({"build"} if Path(folder) == ROOT else set())
+    shutil.copytree(ROOT, src, ignore=ignore)
     ok(run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", "-w", base / "dist", src]))
     (whl,) = (base / "dist").glob("whisker_array-*.whl")
     return whl
@@ -130,7 +133,8 @@ for m in pkgutil.walk_packages(whisker.__path__, "whisker.", onerror=lambda name
         importlib.import_module(m.name)
     except Exception as err:
         failed[m.name] = repr(err)
-from whisker import printer, resources
+from whisker import resources
+from whisker.design import printer
 from whisker.design import load_design
 data = [resources.default_design_path(), printer.resolve(load_design().print.profile),
         resources.example("voltage_sweep", resources.sequences_dir()),
