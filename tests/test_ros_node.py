@@ -43,10 +43,15 @@ def ros(tmp_path_factory):
     frames = tmp_path_factory.mktemp("ros_frames")
     domain = 100 + os.getpid() % 100
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    os.environ.update(ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    saved = {k: os.environ.get(k) for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")}
+    os.environ.update(ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")   # this client too
     proc = subprocess.Popen([sys.executable, "-m", "whisker.cli", "ros", "--source", "sim", "--backend", "sim",
                              "--set", RATING[0], "--set", RATING[1], "--fps", "10", "--duration", "90", "--ros-args", "-r", f"__ns:={NS}",
-                             "-p", f"save_frames:={frames}", "-p", "sim_contact.whiskers:=[2]"],
+                             "-p", f"save_frames:={frames}", "-p", "sim_contact.whiskers:=[2]",
+                             # the simulated camera renders in real time on a shared 2-core machine: a
+                             # late frame is load, not a fault, so the grasp's dropped-frame abort waits
+                             # 8 periods here (2.5 by default)
+                             "-p", "grasp.max_gap_frames:=8.0"],
                             cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     rclpy.init()
     node = rclpy.create_node("whisker_test_client")
@@ -82,6 +87,11 @@ def ros(tmp_path_factory):
             proc.wait(timeout=15)
         except subprocess.TimeoutExpired:
             proc.kill()
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 def test_joint_names_and_rest(ros):
@@ -115,7 +125,6 @@ def test_grasp_moves_the_simulated_whiskers(ros):
     n0 = len(got["joints"])
     res = call(Trigger, "grasp", Trigger.Request())
     assert res.success, res.message
-    # 10 frames/s: a loaded CI machine keeps within the controller's dropped-frame limit (2.5 periods)
     # descend 0.5 s (rest learned), close: every whisker retracts; no object -> missed, coils off
     assert spin_until(lambda: any(p.startswith("done") for p in got["phase"]), 8), got["phase"]
     assert any(p.startswith("close") for p in got["phase"])

@@ -72,8 +72,11 @@ PARAMETERS = {
     "grasp.lift_mm": (0.0, "grasp: lift after the grip, mm (0: the robot lifts)"),
     "grasp.lift_s": (0.5, "grasp: seconds of the lift"),
     "grasp.hold_s": (0.0, "grasp: seconds of the hold, then release (0: hold until ~/release)"),
+    "grasp.max_gap_frames": (2.5, "grasp: abort (coils off) when frames are further apart than this many periods"),
     "sim_contact.whiskers": ([0], "~/sim_contact: whiskers the simulated object touches"),
     "sim_contact.reach_deg": (6.0, "~/sim_contact: tilt the object pushes them to, deg (radially in)"),
+    "sim_dt": (0.002, "backend sim: integration step, s (omega_n dt = 0.17 for the default design with the implicit "
+                      "integrator; 0.0005, SimBackend's default, costs more than real time with the coils on)"),
     "save_frames": ("", "folder: write every camera frame (PNG) and times.csv (file, time_s: camera time s, "
                         "stamp_ns: the stamp of the frame's messages, ns)"),
     "diagnostics_period": (1.0, "seconds between /diagnostics messages"),
@@ -140,7 +143,7 @@ class SensorNode(Node):
         if backend == "sim":
             from whisker.ros.sim_contact import ContactBackend
 
-            self.sim = ContactBackend(d)
+            self.sim = ContactBackend(d, dt=float(self.p("sim_dt")))
         self.tracker = Tracker(d, self.p("tracker"))
         fps = float(self.p("fps"))
         if source == "sim":
@@ -238,7 +241,7 @@ class SensorNode(Node):
                 except (RatingError, ValueError, RuntimeError, TypeError) as err:
                     return SetParametersResult(successful=False, reason=self._refusal(err))
             elif prm.name in ("source", "backend", "tracker", "method", "fps", "rest_frames", "policy", "prefix",
-                              "design_file", "design_set", "save_frames", "diagnostics_period"):
+                              "design_file", "design_set", "save_frames", "diagnostics_period", "sim_dt"):
                 return SetParametersResult(successful=False, reason=f"{prm.name} is read at start only: restart the node")
         return SetParametersResult(successful=True)
 
@@ -306,7 +309,8 @@ class SensorNode(Node):
             hold = float(self.p("grasp.hold_s"))
             params = handheld_params(self.design, fps=float(self.p("fps")), descend_mm=float(self.p("grasp.descend_mm")),
                                      descend_s=float(self.p("grasp.descend_s")), lift_mm=float(self.p("grasp.lift_mm")),
-                                     lift_s=float(self.p("grasp.lift_s")), hold_s=hold if hold > 0 else math.inf)
+                                     lift_s=float(self.p("grasp.lift_s")), hold_s=hold if hold > 0 else math.inf,
+                                     max_gap_frames=float(self.p("grasp.max_gap_frames")))
             from whisker.drive.guard import check_levels
 
             check_levels(self.design, np.where(np.isin(np.arange(self.n), active), params.full_level, 0.0))
