@@ -377,6 +377,9 @@ class SensorNode(Node):
                 self.frames += 1
                 self._save(frame, stamp)
         except Exception as err:  # noqa: BLE001 - the node reports and keeps its services (coils off)
+            if self._stop.is_set() or not self.context.ok():     # Ctrl-C / shutdown: not a fault
+                self.act.off()
+                return
             self.last_error = self._refusal(err)
             self.get_logger().error(f"frame loop stopped: {self.last_error}")
             self.act.off()
