@@ -121,15 +121,23 @@ def test_contact_state_during_simulated_contact(ros):
 
 
 def test_grasp_moves_the_simulated_whiskers(ros):
+    """~/grasp: after the descent (rest learned) every whisker closes; ~/release: coils off, back to rest.
+    Without an object the controller usually ends "missed"; on a machine so loaded that the simulated
+    camera lags the simulated whiskers it may take the lag for a grip and hold, so the test releases."""
     got, spin_until, call = ros["got"], ros["spin_until"], ros["call"]
     n0 = len(got["joints"])
     res = call(Trigger, "grasp", Trigger.Request())
     assert res.success, res.message
-    # descend 0.5 s (rest learned), close: every whisker retracts; no object -> missed, coils off
-    assert spin_until(lambda: any(p.startswith("done") for p in got["phase"]), 8), got["phase"]
+
+    def closed():
+        tilts = np.degrees(np.array([m.position for m in got["joints"][n0:]] or [[0.0] * 8]))
+        return np.nanmax(tilts.min(axis=1)) > 5.0
+    assert spin_until(closed, 8), ("the grasp did not retract every whisker", got["phase"])
     assert any(p.startswith("close") for p in got["phase"])
-    tilts = np.degrees(np.array([m.position for m in got["joints"][n0:]]))
-    assert np.nanmax(tilts.min(axis=1)) > 5.0, "the grasp did not retract every whisker"
+    assert call(Trigger, "release", Trigger.Request()).success
+    n1 = len(got["joints"])
+    assert spin_until(lambda: any(np.all(np.abs(np.degrees(m.position)) < 1.0) for m in got["joints"][n1:]), 6)
+    assert got["phase"][-1].startswith("done"), got["phase"]
 
 
 def test_level_above_rating_refused_with_the_cli_reason(ros):
