@@ -175,12 +175,16 @@ class RunResult:
     classes: tuple
 
 
-def run(ds: WhiskerDataset, protocol: str, seed: int = 0, test_size: float = 0.3, **params) -> RunResult:
-    """Split, train the MLP (params as `make_classifier`), test; timings in seconds."""
+def run(ds: WhiskerDataset, protocol: str, seed: int = 0, test_size: float = 0.3, kind: str = "mlp",
+        **params) -> RunResult:
+    """Split, train a model of `whisker.data.models.KINDS` (``mlp`` = the paper's; params as
+    `whisker.data.models.make_model`), test; timings in seconds."""
     from sklearn.metrics import confusion_matrix
 
+    from whisker.data.models import make_model
+
     train, test = split(ds, protocol, seed, test_size)
-    model = make_classifier(seed=seed, **{**PAPER_PARAMS, **params})
+    model = make_model(kind, seed=seed, n_records=ds.n_records, n_whiskers=ds.n_whiskers, **params)
     t0 = time.perf_counter()
     fit_quiet(model, train.features(), train.y)
     t1 = time.perf_counter()
@@ -194,14 +198,17 @@ def run(ds: WhiskerDataset, protocol: str, seed: int = 0, test_size: float = 0.3
 
 
 def study(ds: WhiskerDataset, protocols=PROTOCOLS, seeds=range(10), progress: bool = False,
-          **params) -> list[RunResult]:
-    """`run` for every protocol and seed (progress bar on stderr if asked)."""
+          n_jobs: int = 1, kind: str = "mlp", **params) -> list[RunResult]:
+    """`run` for every protocol and seed, the fits spread over ``n_jobs`` joblib workers (progress bar
+    on stderr if asked). Results come back in (protocol, seed) order whatever ``n_jobs``."""
+    from joblib import Parallel, delayed
+
     jobs = [(p, s) for p in protocols for s in seeds]
     if progress:
         from tqdm import tqdm
 
-        jobs = tqdm(jobs, desc="classify", unit="fit")
-    return [run(ds, p, s, **params) for p, s in jobs]
+        jobs = tqdm(jobs, desc=f"classify {kind}", unit="fit")
+    return Parallel(n_jobs=n_jobs)(delayed(run)(ds, p, s, kind=kind, **params) for p, s in jobs)
 
 
 def summarize(results: list[RunResult]) -> dict:
