@@ -34,6 +34,7 @@ def make_model(kind: str = "mlp", seed: int | None = None, n_records: int = 8, n
                **params):
     """A scikit-learn Pipeline of one of `KINDS`; ``params`` override `DEFAULTS` (or, for ``mlp``,
     `whisker.data.classify.make_classifier`'s arguments). Unknown kinds or parameters raise ValueError."""
+    from sklearn.calibration import CalibratedClassifierCV
     from sklearn.ensemble import ExtraTreesClassifier, HistGradientBoostingClassifier
     from sklearn.pipeline import make_pipeline
     from sklearn.preprocessing import StandardScaler
@@ -50,13 +51,14 @@ def make_model(kind: str = "mlp", seed: int | None = None, n_records: int = 8, n
     p = {**DEFAULTS[kind], **params}
     shape = {"n_records": n_records, "n_whiskers": n_whiskers}
     try:
-        if kind == "svc":
-            # probability=True: the model file's checks and `predict` report class probabilities
-            return make_pipeline(PolarFeatures(**shape), StandardScaler(),
-                                 SVC(kernel="rbf", probability=True, random_state=seed, **p))
-        if kind == "dft-svc":
-            return make_pipeline(CyclicDFTFeatures(**shape), StandardScaler(),
-                                 SVC(kernel="rbf", probability=True, random_state=seed, **p))
+        if kind in ("svc", "dft-svc"):
+            # class probabilities (the model file's checks and `predict` report them) by Platt scaling
+            # on 5-fold out-of-fold decision values, then one SVM on all the training data
+            # (ensemble=False: what SVC(probability=True), deprecated in scikit-learn 1.9, did)
+            features = PolarFeatures(**shape) if kind == "svc" else CyclicDFTFeatures(**shape)
+            svm = SVC(kernel="rbf", **p)
+            return make_pipeline(features, StandardScaler(),
+                                 CalibratedClassifierCV(svm, method="sigmoid", cv=5, ensemble=False))
         if kind == "trees":
             return make_pipeline(PolarFeatures(**shape), ExtraTreesClassifier(random_state=seed, n_jobs=1, **p))
         return make_pipeline(PolarFeatures(**shape), HistGradientBoostingClassifier(
