@@ -136,7 +136,7 @@ Machine: {machine_line()}; whole run {time.perf_counter() - t0:.0f} s. Generated
 Simulator: whisker.sim.experiments.locate_sweep (membrane k = {k:.3g} N*mm/rad from {k_src}; rod EI =
 {L.bending_stiffness_Nmm2(design):.0f} N*mm^2 from mechanics.rod_modulus {design.mechanics.rod_modulus:g} GPa and a
 {design.whiskers.rod_diameter:g} mm rod; rod friction mu = {mu:g}, contact.rod_friction). Camera: the real tracker (roi)
-on rendered frames, noise sigma 2, blur 0.8 px: its tilt error is {1e6 * sig[0]:.0f} / {1e6 * sig[1]:.0f} urad
+on rendered frames (method `{S.METHOD}`), noise sigma 2, blur 0.8 px: its tilt error is {1e6 * sig[0]:.0f} / {1e6 * sig[1]:.0f} urad
 (radial / tangential) per frame, resampled from 200 rendered rest frames; section 4 renders every frame.
 Object preload: the object pushed the whisker to 2 deg before the sweep.
 

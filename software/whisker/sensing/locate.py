@@ -23,7 +23,7 @@ What the estimator handles, and what it does not:
 - rod bending: it is the measurement (linear beam, small angles);
 - membrane compliance: k in parallel (known or calibrated);
 - a compliant object: its contact compliance c = d(indentation)/dF adds c / r^2 to 1 / (K - k). If the
-  object's compliance is given (`estimate(..., contact_compliance_mm_per_N=...)`), r is solved with
+  object's indentation law is given (`estimate(..., contact_indentation_mm=...)`), r is solved with
   it; if not, a soft object reads farther out than it is (docs/locate.md gives the bias);
 - slip: a contact that slides along the object under the sweep moves the base across the sweep axis
   (in stick that motion is zero) and makes the base far more compliant than the rod allows; both are
@@ -95,7 +95,8 @@ def sweep_levels(amplitude: float, duration_s: float, fps: float, period_s: floa
 
 def sweep_heat(design, amplitude: float, duration_s: float, start_C: float | None = None) -> dict:
     """Heat the sweep costs in the coil (whisker.coil.thermal.CoilThermal, 50 % of the time on):
-    peak temperature (C), rise (K), electrical energy (J), and the guard's cut-off (C)."""
+    peak temperature (C), rise (K), electrical energy (J), and the limit (C): where the thermal guard
+    (whisker.drive.guard) starts derating, so the whole sweep runs at the commanded level."""
     from whisker.coil.thermal import CoilThermal
     from whisker.drive.guard import full_scale_voltage
 
@@ -107,13 +108,15 @@ def sweep_heat(design, amplitude: float, duration_s: float, start_C: float | Non
     for _ in range(steps):
         energy += 0.5 * volts ** 2 / float(th.resistance(T)) * duration_s / steps
         T = th.step_voltage(T, volts, duration_s / steps, duty=0.5)
-    cut = th.limit_C - float(design.drive.guard_margin)
+    # the guard starts derating drive.guard_derate_band below its cut-off: past that the applied torque
+    # would no longer be the commanded one, so that is the sweep's limit
+    cut = th.limit_C - float(design.drive.guard_margin) - float(design.drive.guard_derate_band)
     return {"start_C": T0, "peak_C": float(T), "rise_K": float(T - T0), "energy_J": float(energy), "cut_C": cut}
 
 
 def check_sweep(design, amplitude: float, duration_s: float, start_C: float | None = None) -> dict:
     """`sweep_heat` if the sweep is allowed; LocateError if its level is beyond the drive's ratings or
-    it would heat the coil past the thermal guard's cut-off."""
+    it would heat the coil to where the thermal guard derates."""
     from whisker.drive.guard import max_level
 
     if not math.isfinite(amplitude) or abs(amplitude) > max_level(design) + 1e-12:
@@ -122,8 +125,9 @@ def check_sweep(design, amplitude: float, duration_s: float, start_C: float | No
     heat = sweep_heat(design, amplitude, duration_s, start_C)
     if heat["peak_C"] > heat["cut_C"]:
         raise LocateError(f"sweep of level {amplitude:g} for {duration_s:g} s would heat the coil from "
-                          f"{heat['start_C']:.1f} C to {heat['peak_C']:.1f} C, past the thermal guard's cut-off "
-                          f"{heat['cut_C']:.1f} C; shorten it or lower the amplitude")
+                          f"{heat['start_C']:.1f} C to {heat['peak_C']:.1f} C, past {heat['cut_C']:.1f} C where the thermal guard "
+                          "starts derating (the torque would no longer be the commanded one); "
+                          "shorten it or lower the amplitude")
     return heat
 
 
@@ -156,7 +160,7 @@ class Sweep:
 
 @dataclass
 class LocateResult:
-    status: str                       # "ok", "no contact", "slip or soft contact", "not observable"
+    status: str                       # "ok", "no contact", "slip or soft contact", "not observable", "ambiguous"
     message: str
     distance_mm: float | None = None
     distance_sigma_mm: float | None = None
@@ -212,13 +216,13 @@ def _slopes(design, sweep: Sweep):
 
 
 def estimate(design, sweep: Sweep, *, k: float | None = None, EI: float | None = None,
-             contact_compliance_mm_per_N=None) -> LocateResult:
+             contact_indentation_mm=None) -> LocateResult:
     """Contact distance (mm), its 1-sigma, contact force (mN) and moment (N*mm) from one sweep.
 
     ``k`` (N*mm/rad) and ``EI`` (N*mm^2) default to the design's (`membrane_stiffness_Nmm_per_rad`,
-    `bending_stiffness_Nmm2`) or come from a calibration. ``contact_compliance_mm_per_N(F_N)``: the
-    object's contact compliance when known (e.g. Hertz from its material), else the object is taken
-    as rigid. Refusals raise LocateError; the other outcomes are statuses without a number.
+    `bending_stiffness_Nmm2`) or come from a calibration. ``contact_indentation_mm(F_N)``: the
+    object's indentation under the rod when known (e.g. Hertz from its material), else the object is
+    taken as rigid; its secant compliance between the sweep's two contact forces is used. Refusals raise LocateError; the other outcomes are statuses without a number.
     """
     k = membrane_stiffness_Nmm_per_rad(design)[0] if k is None else float(k)
     EI = bending_stiffness_Nmm2(design) if EI is None else float(EI)
@@ -243,19 +247,31 @@ def estimate(design, sweep: Sweep, *, k: float | None = None, EI: float | None =
                             "in-axis motion): the contact slides along the object", frames=n, details=details)
     K = 1.0 / b
     Kc = K - k
-    Kc_min = 1.0 / (L / (3 * EI) + (_c(contact_compliance_mm_per_N, 0.0) / L ** 2))
-    if Kc < Kc_min:
+    span = float(np.ptp(tau))
+    moment = k * abs(theta0[0])
+    Kc_min = 1.0 / (L / (3 * EI) + _secant(contact_indentation_mm, moment, span, L) / L ** 2)
+    # a contact cannot lie beyond the rod: within 2 standard errors of the tip's stiffness the
+    # constrained estimate is the tip; farther out the base is too compliant for any held contact
+    at_tip = contact_indentation_mm is None and Kc < Kc_min and b - 1.0 / (Kc_min + k) < 2 * se_b
+    if at_tip:
+        Kc = Kc_min
+    elif Kc < Kc_min and contact_indentation_mm is None:
         return LocateResult("slip or soft contact", f"the base is more compliant ({1 / Kc:.3g} rad/(N*mm)) than "
                             f"a rod held at its tip ({1 / Kc_min:.3g}): the contact slides or the object is soft",
                             stiffness_Nmm_per_rad=K, frames=n, details=details)
-    moment = k * abs(theta0[0])
-    try:
-        r = _solve_r(Kc, EI, L, moment, contact_compliance_mm_per_N)
-        dr_dKc = abs(_solve_r(Kc * 1.001, EI, L, moment, contact_compliance_mm_per_N) - r) / (Kc * 0.001)
-    except LocateError as err:
-        return LocateResult("not observable", str(err), stiffness_Nmm_per_rad=K, frames=n, details=details)
+    roots = _solve_r(Kc, EI, L, moment, span, contact_indentation_mm)
+    if not roots:
+        return LocateResult("slip or soft contact", f"no distance on the rod explains the stiffness {K:.3g} "
+                            "N*mm/rad with this object's compliance", stiffness_Nmm_per_rad=K, frames=n, details=details)
+    if len(roots) > 1:
+        details["candidates_mm"] = roots
+        return LocateResult("ambiguous", "with this object's compliance " + " and ".join(f"{x:.1f}" for x in roots)
+                            + " mm fit the sweep alike", stiffness_Nmm_per_rad=K, frames=n, details=details)
+    r = roots[0]
+    near = _solve_r(Kc * 1.001, EI, L, moment, span, contact_indentation_mm)
+    dr_dKc = abs(min(near, key=lambda x: abs(x - r)) - r) / (Kc * 0.001) if near else float("inf")
     sigma_r = dr_dKc * se_b / b ** 2
-    details["r_unclipped_mm"] = float(r)
+    details["at_tip"] = bool(at_tip)
     if sigma_r > NOT_OBSERVABLE_FRACTION * L:
         return LocateResult("not observable", f"distance {r:.0f} mm would be uncertain by {sigma_r:.0f} mm "
                             f"(1 sigma): the sweep's response is too close to the noise", frames=n, details=details)
@@ -265,23 +281,24 @@ def estimate(design, sweep: Sweep, *, k: float | None = None, EI: float | None =
                         moment_Nmm=float(moment), stiffness_Nmm_per_rad=float(K), frames=n, details=details)
 
 
-def _c(fn, F_N: float) -> float:
-    return 0.0 if fn is None else float(fn(max(F_N, 1e-6)))
+def _secant(indentation, moment: float, span: float, r: float) -> float:
+    """Contact compliance (mm/N) between the sweep's two contact forces at distance r: off F0 = M/r,
+    on F0 + span/r (nearly all the sweep's torque goes into the contact); 0 for a rigid object."""
+    if indentation is None:
+        return 0.0
+    F0 = max(moment / r, 1e-6)
+    F1 = F0 + max(span, 1e-9) / r
+    return (float(indentation(F1)) - float(indentation(F0))) / (F1 - F0)
 
 
-def _solve_r(Kc: float, EI: float, L: float, moment: float, compliance) -> float:
-    """r with 1/Kc = r/(3 EI) + c(F)/r^2, F = moment / r. Rigid object (c = 0): r = 3 EI / Kc. With a
-    compliance the right side has a minimum, so two distances can fit: LocateError names both."""
-    if compliance is None:
-        return 3.0 * EI / Kc
+def _solve_r(Kc: float, EI: float, L: float, moment: float, span: float, indentation) -> list[float]:
+    """Every r in (0.5, L] with 1/Kc = r/(3 EI) + c(r)/r^2, c the object's secant compliance over the
+    sweep. Rigid object (c = 0): the one root r = 3 EI / Kc. With a compliance the right side has a
+    minimum, so two distances can fit the same stiffness."""
+    if indentation is None:
+        return [3.0 * EI / Kc]
     target = 1.0 / Kc
     r = np.linspace(0.5, L, 2000)
-    g = np.array([x / (3 * EI) + _c(compliance, moment / x) / x ** 2 - target for x in r])
-    roots = [float(r[i] - g[i] * (r[i + 1] - r[i]) / (g[i + 1] - g[i]))
-             for i in np.flatnonzero(np.sign(g[:-1]) != np.sign(g[1:]))]
-    if not roots:
-        return float(r[np.argmin(np.abs(g))])
-    if len(roots) > 1:
-        raise LocateError(f"with this object's compliance two distances fit the sweep ({roots[0]:.1f} and "
-                          f"{roots[-1]:.1f} mm); it cannot tell them apart")
-    return roots[0]
+    g = np.array([x / (3 * EI) + _secant(indentation, moment, span, x) / x ** 2 - target for x in r])
+    return [float(r[i] - g[i] * (r[i + 1] - r[i]) / (g[i + 1] - g[i]))
+            for i in np.flatnonzero(np.sign(g[:-1]) != np.sign(g[1:]))]
