@@ -203,7 +203,7 @@ def _slopes(design, sweep: Sweep):
     lev, tilt = lev[ok], tilt[ok]
     if np.ptp(lev) < 1e-3:
         raise LocateError("recording without actuation: the coil level does not change during it; "
-                          "locate needs a sweep (whisker locate --live, or a recording made with one)")
+                          "locate needs a sweep (a recording made with one, or whisker locate --simulate)")
     tau = coil_torque_Nmm(design, lev, tilt[:, 0])
     A = np.stack([np.ones_like(tau), tau], axis=1)
     coef, *_ = np.linalg.lstsq(A, tilt, rcond=None)      # tilt = a + b tau, both axes
