@@ -118,3 +118,20 @@ def test_cli_help_and_refusals():
     assert res.returncode == 2 and "SESSION" in res.stderr
     res = run_cli("locate", "--simulate", "30", "--duration", "10")
     assert res.returncode == 2 and "thermal guard" in res.stderr and len(res.stderr.strip().splitlines()) == 1
+
+
+def test_cli_reads_a_recorded_session(tmp_path):
+    """A `whisker record` session: actuation + tracks -> a status; without actuation rows -> refusal."""
+    from test_recording_plot import make_trial
+    from whisker.data.recording import Recorder
+
+    make_trial(tmp_path / "swept", DESIGN, offset_s=0.2, amplitude=0.0)     # levels change, tips never move
+    res = run_cli("locate", str(tmp_path / "swept"), "--whisker", "2", "--out", str(tmp_path / "out"))
+    assert res.returncode == 0 and res.stdout.startswith("not observable"), res.stdout + res.stderr
+    assert (tmp_path / "out" / "locate.md").is_file() and (tmp_path / "out" / "locate.png").is_file()
+    with Recorder(tmp_path / "still", DESIGN) as rec:
+        for i in range(20):
+            rec.write_frame(i, None, time_s=i / 30, track_rows=[f"{i},{i / 30},{w},0,0,0,0,1,ok,0,0,0,64"
+                                                                for w in range(8)])
+    res = run_cli("locate", str(tmp_path / "still"))
+    assert res.returncode == 2 and "without actuation" in res.stderr

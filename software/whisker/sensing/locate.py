@@ -238,7 +238,7 @@ def estimate(design, sweep: Sweep, *, k: float | None = None, EI: float | None =
     if b > 0.5 * free:
         return LocateResult("no contact", f"the whisker followed the sweep like a free one (compliance "
                             f"{b:.3g} rad/(N*mm), free {free:.3g}): nothing holds it", frames=n, details=details)
-    if b < 2 * se_b:
+    if b <= 0 or b < 2 * se_b:
         return LocateResult("not observable", f"the sweep moved the base by {abs(b) * np.ptp(tau):.2g} rad, "
                             f"within the tracker's noise ({noise[0]:.2g} rad per frame x {n} frames): use a "
                             "longer or stronger sweep or a faster camera", frames=n, details=details)

@@ -21,13 +21,13 @@ from whisker.cliutil import design_options, fail
                                                  "(default: rigid).")
 @click.option("--approach-deg", type=click.FloatRange(-89, 89), default=0.0, show_default=True,
               help="--simulate: angle between the object's surface normal and the sweep axis, deg.")
-@click.option("--amplitude", type=float, default=None,
+@click.option("--amplitude", type=click.FloatRange(-1, 1), default=None,
               help="Sweep level (signed PWM duty, + retracts) [default: whisker.sensing.locate.DEFAULT_AMPLITUDE].")
 @click.option("--duration", "duration_s", type=click.FloatRange(0.05, 60), default=None,
               help="Sweep duration, s [default: DEFAULT_DURATION_S].")
 @click.option("--fps", type=click.FloatRange(1, 1000), default=120.0, show_default=True,
               help="--simulate: camera frame rate, frames/s.")
-@click.option("--start-temperature", "start_C", type=float, default=None,
+@click.option("--start-temperature", "start_C", type=click.FloatRange(-50, 200), default=None,
               help="Coil temperature before the sweep, C (default: the design's ambient); the sweep is refused "
                    "if it would pass the thermal guard's cut-off.")
 @click.option("--out", type=click.Path(file_okay=False), default=None,
