@@ -25,13 +25,17 @@ contact) is absent there by construction. This module is the quasi-static model 
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from whisker.sensing import locate as L
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
 
 MATERIALS = Path(__file__).resolve().parents[1] / "scenes" / "materials.toml"
 #: mm, radius of curvature of the objects' surfaces where the rod touches (a 40 mm fruit / ball)
