@@ -35,7 +35,7 @@ def test_noiseless_rigid_contact_is_located_exactly(r, approach, preload):
     res = L.estimate(DESIGN, _sweep(S.Case(r, None, approach, preload)))
     assert res.status == "ok", res.message
     assert res.distance_mm == pytest.approx(r, rel=2e-3)
-    truth_mN = 1e3 * DESIGN.mechanics.rotational_stiffness * math.radians(preload) / r
+    truth_mN = 1e3 * L.membrane_stiffness_Nmm_per_rad(DESIGN)[0] * math.radians(preload) / r
     assert res.force_mN == pytest.approx(truth_mN, rel=0.02)
 
 
@@ -68,7 +68,7 @@ def test_without_the_sweep_there_is_no_number(tracker_noise):
 
 def test_free_whisker_is_no_contact():
     t, lev = L.sweep_levels(L.DEFAULT_AMPLITUDE, 1.0, 120.0)
-    k = DESIGN.mechanics.rotational_stiffness
+    k = L.membrane_stiffness_Nmm_per_rad(DESIGN)[0]
     tilt = np.stack([L.coil_torque_Nmm(DESIGN, lev, np.zeros(len(t))) / k, np.zeros(len(t))], axis=1)
     res = L.estimate(DESIGN, L.Sweep(t, lev, tilt))
     assert res.status == "no contact" and res.distance_mm is None
