@@ -323,7 +323,7 @@ def equilibrium(design, current_A: float, model: str = "table",
         elif th_s is not None:
             th, stable, at_stop, hold = th_end, True, True, float(h(th_end))
             msg = (f"on the end stop at {math.degrees(th_end):.1f} deg, holding torque {hold:.3g} N*mm"
-                   + (f" (pulled in: {I:.3g} A > {i_pull:.3g} A)" if I > i_pull else ""))
+                   + (f" (pulled in: {I:.3g} A > {i_pull:.3g} A)" if I > i_pull and th_pull < th_s else ""))
         else:
             th, stable = th_c, False
             msg = (f"snap-through: {I:.3g} A exceeds the pull-in current {i_pull:.3g} A; the coil is "
