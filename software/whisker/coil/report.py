@@ -123,8 +123,11 @@ def _build_lines(L: list, b: dict, e: dict) -> None:
     L.append(f"MARGIN AND BUILD YIELD at {e['volts_at_coil']:g} V ({b['sensors']} built sensors of "
              f"{b['whiskers_per_sensor']} whiskers, hw/tolerances.csv, whisker.coil.tolerance; stiffness "
              f"{b['stiffness_Nmm_per_rad']:.3g} N*mm/rad from {b['stiffness_source']})")
-    L.append(f"  margin to pull-in in coil current at nominal values: {b['pull_in_margin'] * 100:+.1f} % "
-             f"({b['pull_in_current_A']:.3f} A against {b['grasp_current_A']:.3f} A; the no-stop target is >= +20 %)")
+    if b["pull_in_margin"] is None:
+        L.append("  no pull-in: the coil cannot reach the magnet")
+    else:
+        L.append(f"  margin to pull-in in coil current at nominal values: {b['pull_in_margin'] * 100:+.1f} % "
+                 f"({b['pull_in_current_A']:.3f} A against {b['grasp_current_A']:.3f} A; the no-stop target is >= +20 %)")
     if b["end_stop"]:
         h = b["holding"]
         L.append(f"  end stop at {h['tilt_deg']:g} deg (coil {h['stop_gap_mm']:.2f} mm from the magnet), reached from "

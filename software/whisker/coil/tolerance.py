@@ -334,8 +334,8 @@ class StudyResult:
     stiffness_Nmm_per_rad: float
     stiffness_source: str
     grasp_current_nominal_A: float
-    pull_in_current_nominal_A: float
-    pull_in_margin_nominal: float            # I_pull / I_grasp - 1 at nominal values (no stop)
+    pull_in_current_nominal_A: float | None  # None: the coil cannot reach the magnet
+    pull_in_margin_nominal: float | None     # I_pull / I_grasp - 1 at nominal values (no stop)
     stop_reach_current_nominal_A: float | None
     holding: dict | None                     # at the nominal stop and grasp current
     target_tilt_deg: float                   # what "reaches the grasp tilt" means (the stop, or a share of nominal)
@@ -460,8 +460,9 @@ def study(design, sensors: int = 2000, drive: Drive | None = None, seed: int = 0
     return StudyResult(
         design_digest=design.digest(), drive=drive.mode, end_stop=i_reach_nom is not None, sensors=sensors,
         whiskers_per_sensor=n, stiffness_Nmm_per_rad=k_nom, stiffness_source=k_src,
-        grasp_current_nominal_A=i_nom, pull_in_current_nominal_A=float(i_pull_nom),
-        pull_in_margin_nominal=float(i_pull_nom / i_nom - 1.0) if i_nom > 0 else math.inf,
+        grasp_current_nominal_A=i_nom,
+        pull_in_current_nominal_A=float(i_pull_nom) if math.isfinite(i_pull_nom) else None,
+        pull_in_margin_nominal=float(i_pull_nom / i_nom - 1.0) if i_nom > 0 and math.isfinite(i_pull_nom) else None,
         stop_reach_current_nominal_A=i_reach_nom, holding=hold, target_tilt_deg=float(target),
         p_pull_in=float(r["pulled_in"].mean()), p_coil_on_magnet=float(r["on_magnet"].mean()),
         p_short=float((~r["reached"] & ~r["on_magnet"]).mean()), share_at_stop=float(r["at_stop"].mean()),

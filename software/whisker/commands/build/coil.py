@@ -293,8 +293,9 @@ def tolerance(design, sensors, drive_mode, amps, sobol_base, tolerances, seed, o
     p = r.tilt_percentiles_deg
     click.echo(f"{sensors} sensors x {r.whiskers_per_sensor} whiskers, drive {drive_mode}, "
                f"{'end stop' if r.end_stop else 'no stop'}, stiffness {r.stiffness_Nmm_per_rad:.3g} N*mm/rad")
-    click.echo(f"nominal: grasp {r.grasp_current_nominal_A:.3f} A, pull-in {r.pull_in_current_nominal_A:.3f} A "
-               f"(margin {r.pull_in_margin_nominal * 100:+.1f} %)")
+    click.echo(f"nominal: grasp {r.grasp_current_nominal_A:.3f} A, " + (
+        "no pull-in" if r.pull_in_margin_nominal is None else
+        f"pull-in {r.pull_in_current_nominal_A:.3f} A (margin {r.pull_in_margin_nominal * 100:+.1f} %)"))
     if r.holding:
         h = r.holding
         click.echo(f"end stop {h['tilt_deg']:g} deg: holding {h['holding_torque_Nmm']:.3f} N*mm, post "
