@@ -273,6 +273,12 @@ class Drive(_Section):
     guard_derate_band: float = Field(ge=0, le=200, description="C below the cut-off where derating starts")
     guard_hysteresis: float = Field(gt=0, le=200, description="C a cut coil cools below the cut-off before re-use")
     guard_period: float = Field(gt=0, le=1, description="s between thermal-guard updates")
+    safe_levels: tuple[Annotated[float, Field(gt=0, le=1)], ...] = Field((), description=(
+        "per whisker, the largest |level| measured safe at bring-up (whisker calibrate stiffness); higher "
+        "levels are refused; () = the rating only"))
+    grasp_levels: tuple[Annotated[float, Field(gt=0, le=1)], ...] = Field((), description=(
+        "per whisker, the retract level set at bring-up (whisker calibrate stiffness): reaches the end stop "
+        "hot, with margin; () = actuation.voltage for every whisker"))
 
 
 class Wiring(_Section):
