@@ -20,6 +20,7 @@ MODULES = {
     "pi": ("lgpio", "smbus2"),
     "explore": ("dask", "distributed"),
     "tolerance": ("SALib",),
+    "fem": ("skfem", "triangle"),
 }
 _EXTRA_OF = {m: extra for extra, mods in MODULES.items() for m in mods}
 

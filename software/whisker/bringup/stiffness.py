@@ -22,6 +22,8 @@ import math
 
 import numpy as np
 
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
+
 STOP_MARGIN_DEG = 0.5  # tilts within this of whiskers.max_deflection_deg are taken as resting on the stop
 K_SPREAD = 0.03        # ... and the stiffness changes by less than this fraction over that interval
 GAP_IDENTIFIED = 0.4    # 2-sigma interval width / gap below which the fitted rest gap is reported as identified
@@ -143,7 +145,7 @@ def fit(design, volts, tilts_deg, fit_gap: bool = True, temperatures_C=None) -> 
     t = th[ok]
     gap0 = design.actuation.gap
     result = {"points": int(ok.sum()), "design_gap_mm": gap0, "design_stiffness_Nmm_per_rad":
-              design.mechanics.rotational_stiffness}
+              design_stiffness_Nmm_per_rad(design)}
     gaps = np.linspace(0.5 * gap0, 1.5 * gap0, 81)
     lever = _lever(design)
     gaps = gaps[gaps > lever * np.sin(np.max(t)) + 0.05]    # the coil must not reach the magnet at any point
@@ -220,8 +222,8 @@ def plot_png(design, volts, tilts_deg, result: dict) -> bytes:
         ax.plot(v, t[:, w], "o", ms=3.5, alpha=0.7, label="measured (each whisker)" if w == 0 else None)
     ax.plot(grid, curve_deg(design, result["rotational_stiffness_Nmm_per_rad"], result["gap_mm"], grid), "k-",
             label=f"fit: k = {result['rotational_stiffness_Nmm_per_rad']:.3g} N mm/rad, gap {result['gap_mm']:.2f} mm")
-    ax.plot(grid, curve_deg(design, design.mechanics.rotational_stiffness, design.actuation.gap, grid), "k--",
-            alpha=0.5, label=f"design: k = {design.mechanics.rotational_stiffness:g}, gap {design.actuation.gap:g} mm")
+    ax.plot(grid, curve_deg(design, design_stiffness_Nmm_per_rad(design), design.actuation.gap, grid), "k--",
+            alpha=0.5, label=f"design: k = {design_stiffness_Nmm_per_rad(design):.3g}, gap {design.actuation.gap:g} mm")
     ax.set_xlabel("coil voltage (V)")
     ax.set_ylabel("tilt (deg, + = retraction)")
     ax.set_title("Whisker tilt against coil voltage (paper Fig. 4 protocol)")

@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
+
 G = 9.81  # m/s^2
 
 
@@ -83,7 +85,7 @@ def whisker_body(design, coil_mass_g: float | None = None) -> WhiskerBody:
     m = rod_m + coil_m
     com = (rod_m * rod_com - coil_m * lever) / m
     J = j_rod + j_coil
-    k = mech.rotational_stiffness * 1e-3                   # N*mm/rad -> N*m/rad
+    k = design_stiffness_Nmm_per_rad(design) * 1e-3       # N*mm/rad -> N*m/rad
     c = 2 * mech.damping_ratio * math.sqrt(k * J)
     gap0 = design.actuation.gap
     lever_mm = lever / mm

@@ -14,6 +14,7 @@ from whisker import coil
 from whisker.coil import driver
 from whisker.coil import magnetics
 from whisker.coil import thermal
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad, stiffness_source
 
 REPORT_GAPS_MM = (0.2, 0.5, 1.0, 2.0, 2.5, 5.0, 10.0)
 #: built sensors in the report's build-scatter study (Latin hypercube, seed 0): ~0.5 s; the yield's
@@ -93,7 +94,8 @@ def build_report(design, volts: float | None = None) -> dict:
         "torque_at_rest_Nmm": k_rest * i20 * coil.lever_mm(design),
     }
     defl = {
-        "rotational_stiffness_Nmm_per_rad": design.mechanics.rotational_stiffness,
+        "rotational_stiffness_Nmm_per_rad": design_stiffness_Nmm_per_rad(design),
+        "stiffness_source": stiffness_source(design),
         "equilibrium": eq.to_dict(),
         "pull_in_current_A": i_pull if math.isfinite(i_pull) else None,
         "pull_in_volts": i_pull * r20 if math.isfinite(i_pull) else None,

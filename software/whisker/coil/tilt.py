@@ -24,6 +24,7 @@ import numpy as np
 
 from whisker.coil import magnetics
 from whisker.design.stop import stop_tilt_rad
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
 from whisker.design.wire import (ALPHA20_PER_K, COPPER_DENSITY_G_CM3, COPPER_SPECIFIC_HEAT, ENAMEL_DENSITY_G_CM3,  # noqa: F401
                                  ENAMEL_SPECIFIC_HEAT, ORTHOCYCLIC_PACKING, RHO20_OHM_MM2_PER_M, CoilError, _build,
                                  _positive, enamel_overall_diameter_mm, ohm_per_m, temperature_factor, wire_length_mm)
@@ -274,7 +275,7 @@ def pull_in(design, stiffness_Nmm_per_rad: float | None = None, model: str = "ta
     reaches the magnet at that current. Returns (math.inf, pi/2) when the gap is at least the lever:
     the coil cannot reach the magnet, and every current has a stable tilt.
     """
-    k_rot = design.mechanics.rotational_stiffness if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
+    k_rot = design_stiffness_Nmm_per_rad(design) if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
     th_c = _theta_contact(design)
     if design.actuation.gap >= lever_mm(design):
         return math.inf, math.pi / 2.0
@@ -298,7 +299,7 @@ def equilibrium(design, current_A: float, model: str = "table",
     I = float(current_A)
     if not math.isfinite(I):
         raise CoilError(f"current_A must be finite (got {current_A!r})")
-    k_rot = design.mechanics.rotational_stiffness if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
+    k_rot = design_stiffness_Nmm_per_rad(design) if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
     _positive("rotational_stiffness", k_rot)
     max_dev = design.whiskers.max_deflection_deg
     i_pull, th_pull = pull_in(design, k_rot, model)
@@ -349,7 +350,7 @@ def stop_reach_current_A(design, stiffness_Nmm_per_rad: float | None = None, mod
     th_s = stop_tilt_rad(design)
     if th_s is None:
         return None
-    k_rot = design.mechanics.rotational_stiffness if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
+    k_rot = design_stiffness_Nmm_per_rad(design) if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
     th = np.linspace(0.0, min(th_s, _theta_contact(design)), 2001)[1:]
     return float(np.max(k_rot * th / torque_per_ampere_Nmm(design, th, model=model)))
 
@@ -364,7 +365,7 @@ def holding_at_stop(design, current_A: float, stiffness_Nmm_per_rad: float | Non
     s = end_stop(design)
     if s is None:
         return None
-    k_rot = design.mechanics.rotational_stiffness if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
+    k_rot = design_stiffness_Nmm_per_rad(design) if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
     th = math.radians(s.tilt_deg)
     tau = float(current_A) * float(torque_per_ampere_Nmm(design, th, model=model)) - k_rot * th
     return {"tilt_deg": s.tilt_deg, "stop_gap_mm": s.gap_mm, "holding_torque_Nmm": tau,

@@ -135,13 +135,11 @@ def to_values(tol: Tolerance, u):
 
 
 def nominal_stiffness(design) -> tuple[float, str]:
-    """(k_rot N*mm/rad, source) of the nominal design: the membrane model when it is there
-    (whisker.mechanics.membrane), else the design's [mechanics] rotational_stiffness."""
-    try:
-        from whisker.mechanics import membrane  # issue 27's FEM model (another branch)
-        return float(membrane.rotational_stiffness_Nmm_per_rad(design)), "whisker.mechanics.membrane"
-    except ImportError:
-        return float(design.mechanics.rotational_stiffness), "mechanics.rotational_stiffness"
+    """(k_rot N*mm/rad, source) of the nominal design: ``mechanics.rotational_stiffness`` resolved by
+    whisker.mechanics.membrane (the membrane model for "auto", else the design's number)."""
+    from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad, stiffness_source
+
+    return float(design_stiffness_Nmm_per_rad(design)), stiffness_source(design)
 
 
 # ---- the vectorised physics --------------------------------------------------------------------

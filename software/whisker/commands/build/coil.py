@@ -10,6 +10,7 @@ from pathlib import Path
 import click
 
 from whisker.cliutil import design_options, fail
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad, stiffness_source
 
 #: most rows `coil thermal` prints (one per --step)
 MAX_THERMAL_ROWS = 100_000
@@ -178,7 +179,7 @@ def deflection(design, volts):
     i_pull, th_pull = pull_in(design)
     pull = (f"pull-in above {i_pull:.3f} A = {i_pull * resistance_ohm(design):.2f} V (at {math.degrees(th_pull):.1f} deg)"
             if math.isfinite(i_pull) else "no pull-in (the coil cannot reach the magnet)")
-    click.echo(f"stiffness {design.mechanics.rotational_stiffness:g} N*mm/rad, gap {design.actuation.gap:g} mm; {pull}")
+    click.echo(f"stiffness {design_stiffness_Nmm_per_rad(design):.4g} N*mm/rad ({stiffness_source(design)}), gap {design.actuation.gap:g} mm; {pull}")
     click.echo("volts  current_A  tilt_deg  gap_mm  state")
     for v in vs:
         eq = equilibrium(design, current_A(design, float(v)))

@@ -14,6 +14,7 @@ from pathlib import Path
 import click
 
 from whisker.cliutil import design_options, fail
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
 
 
 @click.group()
@@ -444,7 +445,7 @@ def stiffness(design, backend, source, out, steps, max_volts, settle, fixed_gap,
     res["volts"] = volts.tolist()
     res["tilts_deg"] = [[None if not np.isfinite(x) else float(x) for x in row] for row in tilts]
     k = res["rotational_stiffness_Nmm_per_rad"]
-    click.echo(f"rotational stiffness {k:.4g} N*mm/rad (design {design.mechanics.rotational_stiffness:g}), "
+    click.echo(f"rotational stiffness {k:.4g} N*mm/rad (design {design_stiffness_Nmm_per_rad(design):.4g}), "
                f"rest gap {res['gap_mm']:.3f} mm " + ("(fitted)" if res["gap_identified"] else
                                                      f"(design's: the data do not fix it, best {res['gap_best_mm']:.2f})")
                + f"; RMS residual {res['rms_residual_deg']:.3f} deg over {res['points']} points")
