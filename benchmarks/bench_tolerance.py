@@ -28,7 +28,7 @@ from whisker.coil import tolerance as T  # noqa: E402
 from whisker.design import default_design  # noqa: E402
 
 SIZES = (50, 100, 200, 400, 800, 1600, 3200)
-REFERENCE = 12800
+REFERENCE = 6400
 GRIDS = (32, 64, 128, 256, 512)
 GRID_REF = 1024
 GRID_SENSORS = 1000

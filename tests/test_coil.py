@@ -11,6 +11,7 @@ from hypothesis import given, settings, strategies as st
 from whisker import coil as C
 from whisker.coil import magnetics as M
 from whisker.design import DesignError, default_design
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
 
 # The free whisker (no end stop), whose snap-through these tests check; the default design's end stop
 # (actuation.end_stop) is tested in tests/test_tolerance.py.
@@ -111,7 +112,7 @@ def test_zero_current_is_rest():
 def test_small_current_linear_regime():
     i = 1e-4
     tau0 = float(C.torque_per_ampere_Nmm(D, 0.0))
-    expect = math.degrees(i * tau0 / D.mechanics.rotational_stiffness)
+    expect = math.degrees(i * tau0 / design_stiffness_Nmm_per_rad(D))
     assert abs(C.deflection_deg(D, i) / expect - 1) < 1e-3
 
 
@@ -140,7 +141,7 @@ def test_property_equilibrium_balances_torque(frac):
     eq = C.equilibrium(D, i)
     assert eq.stable
     th = math.radians(eq.theta_deg)
-    k = D.mechanics.rotational_stiffness
+    k = design_stiffness_Nmm_per_rad(D)
     assert abs(k * th - i * float(C.torque_per_ampere_Nmm(D, th))) < 1e-8
     # stable: the net restoring torque grows with tilt there
     dh = (i * float(C.torque_per_ampere_Nmm(D, th + 1e-6)) - k * (th + 1e-6)) - (i * float(C.torque_per_ampere_Nmm(D, th)) - k * th)

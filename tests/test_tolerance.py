@@ -74,12 +74,14 @@ def test_vectorised_physics_matches_the_scalar_equilibrium(tol):
     from whisker.coil import current_A, equilibrium, pull_in
     d = load_design(overrides=["actuation.end_stop=false", "actuation.gap=2.5"])
     nom = T.nominal_draws(tol, d)
-    r = T.evaluate(d, tol, nom, T.Drive("current", amps=0.45), d.mechanics.rotational_stiffness)
+    k = T.nominal_stiffness(d)[0]
+    amps = 0.9 * pull_in(d)[0]
+    r = T.evaluate(d, tol, nom, T.Drive("current", amps=amps), k)
     assert r["pull_in_A"][0] == pytest.approx(pull_in(d)[0], rel=2e-3)
-    eq = equilibrium(d, 0.45)
+    eq = equilibrium(d, amps)
     assert math.degrees(r["tilt_rad"][0]) == pytest.approx(eq.theta_deg, abs=0.1)
     # and the voltage drive's nominal current is the coil report's
-    rv = T.evaluate(d, tol, nom, T.Drive("voltage"), d.mechanics.rotational_stiffness)
+    rv = T.evaluate(d, tol, nom, T.Drive("voltage"), k)
     assert rv["current_A"][0] == pytest.approx(current_A(d, d.actuation.voltage), rel=0.01)
 
 
