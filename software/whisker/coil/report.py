@@ -179,7 +179,7 @@ def format_report(rep: dict) -> str:
         L.append(f"  NOTE: force uses coil.turns = {w['turns']}; if the coil has the {n_m} turns its measured "
                  f"resistance implies, every force and torque here is {n_m / w['turns']:.2f}x")
     eq = d["equilibrium"]
-    L.append(f"DEFLECTION (rotational stiffness {d['rotational_stiffness_Nmm_per_rad']:g} N*mm/rad)")
+    L.append(f"DEFLECTION (rotational stiffness {d['rotational_stiffness_Nmm_per_rad']:.4g} N*mm/rad from the {d['stiffness_source']})")
     if eq["stable"]:
         L.append(f"  steady tilt {eq['theta_deg']:.2f} deg, gap {eq['gap_mm']:.2f} mm ({eq['message']})")
     else:

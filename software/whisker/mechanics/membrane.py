@@ -92,14 +92,15 @@ class MembraneGeometry:
 
 
 def mesh_layers(thickness: float, mesh_size: float) -> int:
-    """Prism layers through the thickness: about one per mesh_size, at least two (bending)."""
-    return max(2, math.ceil(thickness / mesh_size - 1e-9))
+    """Prism layers through the thickness: one per half mesh size, at least two (bending), so refining
+    the mesh refines through the thickness too."""
+    return max(2, math.ceil(2 * thickness / mesh_size - 1e-9))
 
 
-def check_geometry(g: MembraneGeometry, mesh_size: float) -> None:
+def check_geometry(g: MembraneGeometry, mesh_size: float, layers: int | None = None) -> None:
     """One line for a membrane the mesher cannot take (too thin, rods outside the seat's opening ...)."""
     rod_seg = mesh_size / ROD_REFINEMENT
-    layers = mesh_layers(g.thickness, mesh_size)
+    layers = layers or mesh_layers(g.thickness, mesh_size)
     if not all(math.isfinite(v) and v > 0 for v in (g.thickness, g.inscribed_radius, g.rod_diameter, mesh_size)):
         raise MembraneError("membrane model: thickness, radius, rod diameter and mesh size must be positive numbers")
     if g.thickness / layers * MAX_LAYER_ASPECT < rod_seg:
@@ -143,12 +144,13 @@ class TiltStiffness:
 
 
 def tilt_stiffness(geometry: MembraneGeometry, shear_modulus_MPa: float, bulk_modulus_MPa: float,
-                   mesh_size_mm: float = DEFAULT_MESH_SIZE_MM) -> TiltStiffness:
+                   mesh_size_mm: float = DEFAULT_MESH_SIZE_MM, layers: int | None = None) -> TiltStiffness:
     """The FEM, uncached: the tilt stiffness of every whisker of a membrane, N mm/rad.
 
     Linear in the modulus: k(c mu, c K) = c k(mu, K) exactly; at a fixed K >> mu, k is proportional
     to mu within 0.1 %. The tolerance study varies the modulus by scaling, the thickness by calling
-    this with another geometry (a few seconds per call at the default mesh).
+    this with another geometry (a few seconds per call at the default mesh). layers: prism layers
+    through the thickness (default :func:`mesh_layers`).
     """
     from whisker.mechanics.fem import Inclusion, MeshError, Plate, solve
 
@@ -156,12 +158,12 @@ def tilt_stiffness(geometry: MembraneGeometry, shear_modulus_MPa: float, bulk_mo
             and math.isfinite(bulk_modulus_MPa) and bulk_modulus_MPa > shear_modulus_MPa):
         raise MembraneError(f"membrane model: need 0 < shear modulus ({shear_modulus_MPa!r} MPa) < bulk modulus "
                             f"({bulk_modulus_MPa!r} MPa)")
-    check_geometry(geometry, mesh_size_mm)
+    check_geometry(geometry, mesh_size_mm, layers)
     r = geometry.ring_radius
     rods = tuple(Inclusion(r * math.cos(math.radians(a)), r * math.sin(math.radians(a)), geometry.rod_diameter / 2)
                  for a in geometry.angles_deg)
     plate = Plate(geometry.outline(), geometry.thickness, rods, geometry.clamp_radius)
-    layers = mesh_layers(geometry.thickness, mesh_size_mm)
+    layers = layers or mesh_layers(geometry.thickness, mesh_size_mm)
     t0 = time.perf_counter()
     try:
         sol = solve(plate, shear_modulus_MPa, bulk_modulus_MPa, mesh_size_mm, mesh_size_mm / ROD_REFINEMENT, layers,
@@ -305,7 +307,7 @@ def design_stiffness_Nmm_per_rad(design: "Design") -> float:
 def stiffness_source(design: "Design") -> str:
     """Where design_stiffness_Nmm_per_rad's value comes from, for reports."""
     if design.mechanics.rotational_stiffness != "auto":
-        return "file (mechanics.rotational_stiffness)"
+        return "design file (mechanics.rotational_stiffness)"
     e = _entry(design)
     return (f"membrane model ({e['inputs']['geometry']['thickness']:g} mm {design.membrane.material}, "
             f"mesh {e['mesh_size_mm']:g} mm, key {e['key']})")
