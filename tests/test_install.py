@@ -32,7 +32,7 @@ pytestmark = pytest.mark.install
 
 CONSTRAINTS = ROOT / "constraints.txt"
 WHEELHOUSE = ROOT / ".ci-wheels"  # gitignored (.ci-*/): the core's wheel files, kept between runs
-HEAVY = ("cadquery", "OCP", "mujoco", "skidl", "kinparse", "magpylib", "trimesh", "manifold3d", "rtree", "skfem",
+HEAVY = ("cadquery", "OCP", "mujoco", "skidl", "kinparse", "magpylib", "trimesh", "manifold3d", "rtree", "skfem", "SALib",
          "triangle")
 
 
@@ -223,7 +223,7 @@ def full(wheel, tmp_path_factory):
 def test_all_install_builds_the_default_design_like_make_stl(full, default_build):
     whisker, home, env = full
     extras = doctor(run([whisker, "doctor"], cwd=home, env=env).stdout)["extras"][1]
-    assert "core + cad, explore, fem, hw, magnetics, sim" in extras and "not installed" not in extras, extras
+    assert "core + cad, explore, fem, hw, magnetics, sim, tolerance" in extras and "not installed" not in extras, extras
     ok(run([whisker, "cad", "build", "--out", "exports", "-q"], cwd=home, env=env))
     wheel_m, repo_m = load_manifest(home / "exports"), load_manifest(default_build)
     assert wheel_m["build_key"] == repo_m["build_key"], "another design or other CAD sources in the wheel"
