@@ -12,8 +12,11 @@ Each inclusion (a rod cast through the plate) is rigid and bonded over the plate
 the displacement of every node on its surface is u = t + w x (x - pivot), six rigid-body unknowns
 per inclusion with the pivot on the mid-plane at its centre. The plate is held (u = 0) on a clamp:
 its lower face outside a radius (the membrane glued on the mount's seat ledge) or its outer side
-face (the closed-form check). Static condensation of every other unknown gives the 6N x 6N
-stiffness of the inclusions' rigid-body motions (N/mm, N, N mm/rad).
+face (the closed-form check). Static condensation of every other unknown - the plate's, and every
+inclusion motion but one chosen rotation each - gives the m x m stiffness of those rotations (N mm/rad).
+The mixed system is symmetric quasi-definite ([[A, B^T], [B, -C]], A and C positive definite), so
+SuperLU factorises it with a symmetric fill-reducing ordering and no pivoting (Vanderbei 1995:
+quasi-definite matrices are strongly factorisable), ~4x faster than its default partial pivoting.
 
 Libraries: scikit-fem (assembly: pure Python on numpy/scipy, a small wheel on every platform,
 including the Raspberry Pi) and Triangle (Shewchuk's quality 2D mesher through the ``triangle``

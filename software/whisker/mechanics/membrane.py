@@ -17,8 +17,12 @@ the tilts theta = K^-1 M. Its diagonal couples neighbours through the one-piece 
 
 - :func:`stiffness_matrix` (design) -> K, cached on disk per membrane key (below);
 - :func:`rotational_stiffness_Nmm_per_rad` (design) -> the per-whisker stiffness the coil model
-  uses: 1 / mean(diag(K^-1)), the moment per radian of one whisker driven alone with its neighbours
-  free (the way `whisker calibrate stiffness` drives them);
+  uses: every whisker driven by the same moment (the grasp, `whisker calibrate stiffness`'s voltage
+  steps, the authors' actuated frame), the mean row sum of K;
+  :func:`single_whisker_stiffness_Nmm_per_rad` one whisker alone, 1 / mean(diag(K^-1));
+  :func:`driven_stiffness_Nmm_per_rad` any subset; :func:`coupling` the neighbours' tilts;
+- :func:`design_stiffness_Nmm_per_rad` (design) -> ``mechanics.rotational_stiffness`` resolved (the
+  number in the file, or the model's for "auto"): what every module reads;
 - :func:`tilt_stiffness` (explicit geometry, moduli, mesh size) -> uncached, for the tolerance study.
   For this linear model K is exactly proportional to the shear modulus at a fixed K/mu (and within
   0.1 % at a fixed bulk modulus while K >> mu), so a modulus scatter scales K: k(mu') = k(mu) mu'/mu.
@@ -53,7 +57,7 @@ if TYPE_CHECKING:  # pragma: no cover
 #: Bump when the model changes what it computes: old cache entries are then ignored.
 MODEL_VERSION = 1
 #: Default mesh: largest triangle edge, mm (the knee of benchmarks/results/membrane.md).
-DEFAULT_MESH_SIZE_MM = 3.0
+DEFAULT_MESH_SIZE_MM = 2.5
 #: The rods' circles are cut into segments of mesh_size / ROD_REFINEMENT (grades the mesh to the rods).
 ROD_REFINEMENT = 4.0
 #: The thinnest layer: layers are at most this many times thinner than the rods' segments.
