@@ -160,3 +160,14 @@ def test_tilt_clamps_at_the_stop_with_a_holding_torque():
     h = holding_at_stop(d, current_A(d, 3.0))
     assert h["holding_torque_Nmm"] == pytest.approx(equilibrium(d, current_A(d, 3.0)).holding_torque_Nmm, rel=1e-6)
     assert h["post_force_mN"] > h["tip_force_mN"] > 0
+
+
+def test_coil_report_shows_margin_holding_and_yield():
+    from whisker.coil.report import build_report, format_report
+    rep = build_report(load_design())
+    b = rep["build"]
+    assert b["end_stop"] and b["holding"]["post_force_mN"] > 0 and b["pull_in_margin"] is not None
+    assert b["drives"]["bringup"]["yield"] >= 0.99 and b["drives"]["voltage"]["p_coil_on_magnet"] == 0.0
+    text = format_report(rep)
+    assert "MARGIN AND BUILD YIELD" in text and "margin to pull-in in coil current" in text
+    assert f"{b['sensors']} built sensors" in text
