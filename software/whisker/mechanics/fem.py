@@ -16,7 +16,7 @@ face (the closed-form check). Static condensation of every other unknown - the p
 inclusion motion but one chosen rotation each - gives the m x m stiffness of those rotations (N mm/rad).
 The mixed system is symmetric quasi-definite ([[A, B^T], [B, -C]], A and C positive definite), so
 SuperLU factorises it with a symmetric fill-reducing ordering and no pivoting (Vanderbei 1995:
-quasi-definite matrices are strongly factorisable), ~4x faster than its default partial pivoting.
+quasi-definite matrices are strongly factorisable), ~3.5x faster than its default partial pivoting.
 
 Libraries: scikit-fem (assembly: pure Python on numpy/scipy, a small wheel on every platform,
 including the Raspberry Pi) and Triangle (Shewchuk's quality 2D mesher through the ``triangle``

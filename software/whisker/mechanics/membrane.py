@@ -25,7 +25,7 @@ the tilts theta = K^-1 M. Its diagonal couples neighbours through the one-piece 
   number in the file, or the model's for "auto"): what every module reads;
 - :func:`tilt_stiffness` (explicit geometry, moduli, mesh size) -> uncached, for the tolerance study.
   For this linear model K is exactly proportional to the shear modulus at a fixed K/mu (and within
-  0.1 % at a fixed bulk modulus while K >> mu), so a modulus scatter scales K: k(mu') = k(mu) mu'/mu.
+  0.2 % at a fixed bulk modulus while K >> mu), so a modulus scatter scales K: k(mu') = k(mu) mu'/mu.
 
 Cache: ``$XDG_CACHE_HOME/whisker/membrane/<key>.json`` (default ~/.cache/whisker), the key a digest
 of exactly what the model reads (the membrane's geometry, the rods, the clamp radius, the moduli, the
@@ -152,9 +152,10 @@ def tilt_stiffness(geometry: MembraneGeometry, shear_modulus_MPa: float, bulk_mo
     """The FEM, uncached: the tilt stiffness of every whisker of a membrane, N mm/rad.
 
     Linear in the modulus: k(c mu, c K) = c k(mu, K) exactly; at a fixed K >> mu, k is proportional
-    to mu within 0.1 %. The tolerance study varies the modulus by scaling, the thickness by calling
-    this with another geometry (a few seconds per call at the default mesh). layers: prism layers
-    through the thickness (default :func:`mesh_layers`).
+    to mu within 0.2 % for a doubling (tests/test_membrane.py). The tolerance study varies the modulus
+    by scaling, the thickness by calling this with another geometry (10-45 s per call at the default
+    mesh on 2 cores; a coarser mesh_size_mm is cheaper). layers: prism layers through the thickness
+    (default :func:`mesh_layers`).
     """
     from whisker.mechanics.fem import Inclusion, MeshError, Plate, solve
 
