@@ -207,8 +207,15 @@ def test_docs_state_the_models_numbers():
     coil_md = re.sub(r"\s+", " ", (root / "docs" / "coil.md").read_text())
     m = re.search(r"\*\*([\d.]+) N mm/rad\*\* per whisker with every whisker driven together \(([\d.]+) for one", coil_md)
     assert m and float(m[1]) == round(k_all, 3) and float(m[2]) == round(k_one, 3)
-    m = re.search(r"\(([\d.]+) N mm/rad, every whisker driven\) \| none: pull-in above ([\d.]+) V", coil_md)
-    assert m and float(m[1]) == round(k_all, 3) and float(m[2]) == round(v_pull, 2)
+    from whisker.coil.tilt import stop_reach_current_A
+    i_stop = stop_reach_current_A(d)
+    m = re.search(r"\(([\d.]+) N mm/rad, every whisker driven\) \| on the end stop at ([\d.]+) deg, reached from "
+                  r"([\d.]+) A = ([\d.]+) V \(without the stop: pull-in above ([\d.]+) V\)", coil_md)
+    assert m and float(m[1]) == round(k_all, 3) and float(m[2]) == d.whiskers.max_deflection_deg
+    assert float(m[3]) == round(i_stop, 3) and float(m[4]) == round(i_stop * resistance_ohm(d), 2)
+    assert float(m[5]) == round(v_pull, 2)
+    m = re.search(r"the paper's 3 V is past pull-in \(([\d.]+) V\)", coil_md)
+    assert m and float(m[1]) == round(v_pull, 2)
     mem_md = re.sub(r"\s+", " ", (root / "docs" / "membrane.md").read_text())
     m = re.search(r"every whisker driven together: \*\*([\d.]+) N mm/rad\*\*, one whisker alone \*\*([\d.]+) N mm/rad\*\*",
                   mem_md)

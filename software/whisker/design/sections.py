@@ -85,6 +85,9 @@ class Magnet(_Section):
 class Actuation(_Section):
     gap: float = Field(gt=0, le=50, description="mm between the winding's outer face and the magnet face at rest")
     voltage: float = Field(gt=0, le=50, description="V at the coil for grasping")
+    end_stop: bool = Field(False, description=(
+        "a post on the bobbin's outer flange meets the magnet's face at whiskers.max_deflection_deg: "
+        "retraction (and pull-in) ends on it, coil clear of the magnet (whisker.design.stop)"))
 
 
 class Camera(_Section):
@@ -276,6 +279,12 @@ class Drive(_Section):
     guard_derate_band: float = Field(ge=0, le=200, description="C below the cut-off where derating starts")
     guard_hysteresis: float = Field(gt=0, le=200, description="C a cut coil cools below the cut-off before re-use")
     guard_period: float = Field(gt=0, le=1, description="s between thermal-guard updates")
+    safe_levels: tuple[Annotated[float, Field(gt=0, le=1)], ...] = Field((), description=(
+        "per whisker, the largest |level| measured safe at bring-up (whisker calibrate stiffness); higher "
+        "levels are refused; () = the rating only"))
+    grasp_levels: tuple[Annotated[float, Field(gt=0, le=1)], ...] = Field((), description=(
+        "per whisker, the retract level set at bring-up (whisker calibrate stiffness): reaches the end stop "
+        "hot, with margin; () = actuation.voltage for every whisker"))
 
 
 class Wiring(_Section):
@@ -362,6 +371,8 @@ class Bobbin(_Section):
     socket_depth: float = Field(2.0, gt=0, le=20, description="mm of rod above the coil axis in the tab, at most")
     lead_hole: float = Field(0.35, gt=0, le=2, description="mm, the two lead holes beside the rod")
     min_wall: float = Field(0.3, gt=0, le=5, description="mm, the resin process's thinnest wall")
+    stop_post_diameter: float = Field(1.0, gt=0, le=10, description=(
+        "mm, the end-stop post on the outer flange (actuation.end_stop); its length follows from the stop tilt"))
 
 
 class WindingJig(_Section):
