@@ -31,10 +31,8 @@ def _device(design, harness):
 def _diagnose(design, harness):
     backend, act, clock = _device(design, harness)
     with act:
-        # 1.0 V: in the membrane model's linear range (pull-in 1.84 V with every whisker driven), so a
-        # 30 % leak moves a neighbour ~30 % as far; 1.5 V (the CLI's default) is 82 % of pull-in
         resp, rest = pulse_coils(act, SimCamera(design, backend).grab, Tracker(design, "roi"),
-                                 float(volts_to_levels(design, 1.0)), settle_s=0.5, sleep=clock.sleep)
+                                 float(volts_to_levels(design, 1.5)), settle_s=0.5, sleep=clock.sleep)
     return diagnose(resp, rest)
 
 
