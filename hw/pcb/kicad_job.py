@@ -23,6 +23,7 @@ import sys
 import pcbnew
 
 MM = pcbnew.FromMM
+COPPER = (("F.Cu", pcbnew.F_Cu), ("In1.Cu", pcbnew.In1_Cu), ("In2.Cu", pcbnew.In2_Cu), ("B.Cu", pcbnew.B_Cu))
 FOOTPRINTS = os.environ.get("KICAD9_FOOTPRINT_DIR", "/usr/share/kicad/footprints")
 
 
@@ -238,9 +239,8 @@ def copper(job):
     items = []
     for fp in board.GetFootprints():
         for pad in fp.Pads():
-            layers = [n for n, lid in (("F.Cu", pcbnew.F_Cu), ("B.Cu", pcbnew.B_Cu)) if pad.IsOnLayer(lid)]
-            for name in layers:
-                lid = pcbnew.F_Cu if name == "F.Cu" else pcbnew.B_Cu
+            layers = [(n, lid) for n, lid in COPPER if pad.IsOnLayer(lid)]
+            for name, lid in layers:
                 poly = pcbnew.SHAPE_POLY_SET()
                 pad.TransformShapeToPolygon(poly, lid, 0, MM(0.001), pcbnew.ERROR_INSIDE)
                 items.append({"kind": "pad", "id": f"{fp.GetReference()}:{pad.GetNumber()}", "layer": name,
@@ -257,7 +257,7 @@ def copper(job):
                           "start": [pcbnew.ToMM(a.x), pcbnew.ToMM(a.y)], "end": [pcbnew.ToMM(b.x), pcbnew.ToMM(b.y)],
                           "width": pcbnew.ToMM(t.GetWidth())})
     for z in board.Zones():
-        for lid, name in ((pcbnew.F_Cu, "F.Cu"), (pcbnew.B_Cu, "B.Cu")):
+        for name, lid in COPPER:
             if z.IsOnLayer(lid) and z.HasFilledPolysForLayer(lid):
                 fpoly = z.GetFilledPolysList(lid)
                 for k, pts in enumerate(_poly_points(fpoly)):
