@@ -87,6 +87,24 @@ def build_hat(design: Design, out: str | Path, route: bool = True, log=print) ->
             finally:
                 if not kicad.KEEP_WORK:
                     shutil.rmtree(work, ignore_errors=True)
+        elif kicad.kicad_status()[0]:
+            # not routed, but KiCad is here: the placed board with its planes filled (GND/VM complete,
+            # the signal nets left to route) and its renders, for the docs
+            work = Path(tempfile.mkdtemp(prefix="whisker-hat-"))
+            try:
+                (work / "spec.json").write_text(json.dumps(spec))
+                first = kicad.run_job("build", work, spec=work / "spec.json", board=work / "placed.kicad_pcb", dsn="")
+                tracks, vias = kicad.fanout(spec, first["pads"])
+                (work / "spec.json").write_text(json.dumps({**spec, "tracks": tracks, "vias": vias}))
+                kicad.run_job("build", work, spec=work / "spec.json", board=work / "unrouted.kicad_pcb", dsn="")
+                kicad.run_job("fill", work, board=work / "unrouted.kicad_pcb", out=tmp / "hat_placed.kicad_pcb")
+                drc = kicad.drc(tmp / "hat_placed.kicad_pcb", work / "drc.json")
+                summary["placed_drc"] = drc
+                fab.render(tmp / "hat_placed.kicad_pcb", tmp / "hat_top.png", "top")
+                fab.render(tmp / "hat_placed.kicad_pcb", tmp / "hat_bottom.png", "bottom")
+                names += ["hat_placed.kicad_pcb", "hat_top.png", "hat_bottom.png"]
+            finally:
+                shutil.rmtree(work, ignore_errors=True)
         atomic_write_json(tmp / "hat_summary.json", summary)
         publish(tmp, out, [*names, "hat_summary.json"])
     return summary
