@@ -72,7 +72,7 @@ def test_twelve_coils_use_the_expander_and_monitor_addresses():
     (("drive.max_coil_voltage=10",), r"full-scale current 1\.7\d* A .* above the DRV8833's 1\.5 A"),
     (("whiskers.count=13", 'wiring.expander="pca9685"', "wiring.pca9685_address=0x44"),
      r"13 coils is more than the HAT carries: 12 \(4 INA3221"),
-    (('driver.bridge="XYZ"',), r"unknown bridge 'XYZ'"),
+    (('driver.bridge="XYZ"',), r"unknown driver 'XYZ': no such bridge in hw/bridges.csv"),
     (('driver.current_monitor="FOO"',), r"unknown current monitor 'FOO'"),
     (("whiskers.count=12", 'wiring.expander="pca9685"'), r"collides with the HAT's INA3221"),
     (("driver.supply_voltage=12",), r"outside the DRV8833's 2\.7-10\.8 V"),

@@ -10,6 +10,7 @@ produced shorts) -> SES back into the board, zones filled -> ``kicad-cli pcb drc
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import shutil
@@ -116,14 +117,40 @@ def fanout(spec: dict, pads: list[dict]) -> tuple[list[dict], list[dict]]:
         ths = through_by.get((p["ref"], p["net"]), [])
         if not p["through"] and any(box(*t["bbox"]).intersects(box(*p["bbox"])) for t in ths):
             on_plane.setdefault((p["ref"], p["net"]), []).append(p)
+    # neighbouring pins of one part on the same plane net (a row of address straps, say) are joined by a
+    # track along the row and share one via: only the first pin of each such group needs room for a via
+    done_group: set = set()
+    group_of: dict[int, int] = {}
+    smd = [p for p in pads if p["net"] in power and not p["through"] and not p["bottom"] and p["pad"]]
+    for i, a in enumerate(smd):
+        for j in range(i):
+            b = smd[j]
+            if a["ref"] == b["ref"] and a["net"] == b["net"] and \
+                    math.dist(a["at"], b["at"]) <= 0.7 and not on_plane.get((a["ref"], a["net"])):
+                g = group_of.get(id(b), id(b))
+                group_of[id(a)] = g
+                group_of.setdefault(id(b), g)
+                tracks.append({"start": list(b["at"]), "end": list(a["at"]), "width": w, "layer": "F.Cu",
+                               "net": a["net"]})
+                obstacles.append((a["net"], LineString([b["at"], a["at"]]).buffer(w / 2), None))
+                break
     for p in pads:
         if p["net"] not in power or p["through"] or p["bottom"] or not p["pad"]:
+            continue
+        g = group_of.get(id(p))
+        if g is not None and g in done_group:
             continue
         (px, py), (fx, fy) = p["at"], p["fp_at"]
         x0, y0, x1, y1 = p["bbox"]
         hx, hy = (x1 - x0) / 2, (y1 - y0) / 2
         dx, dy = px - fx, py - fy
-        axis = (1.0 if dx >= 0 else -1.0, 0.0) if abs(dx) >= abs(dy) else (0.0, 1.0 if dy >= 0 else -1.0)
+        if hx > 1.3 * hy:      # an IC pin is long along its way out of the package
+            horizontal = True
+        elif hy > 1.3 * hx:
+            horizontal = False
+        else:                  # square-ish (a passive's pad): away from the part's centre
+            horizontal = abs(dx) >= abs(dy)
+        axis = (1.0 if dx >= 0 else -1.0, 0.0) if horizontal else (0.0, 1.0 if dy >= 0 else -1.0)
         anchors = on_plane.get((p["ref"], p["net"]))
         if anchors and any(a is p for a in anchors):
             continue  # an exposed pad with its own thermal vias: already on the plane
@@ -163,10 +190,14 @@ def fanout(spec: dict, pads: list[dict]) -> tuple[list[dict], list[dict]]:
                 vias.append({"at": [vx, vy], "diameter": via_d, "drill": r["via_drill"], "net": p["net"]})
                 obstacles.append((p["net"], via, None))
                 obstacles.append((p["net"], line, None))
+                if g is not None:
+                    done_group.add(g)
                 placed = True
                 break
             if placed:
                 break
+        if not placed and g is not None:
+            continue  # another pin of its group may still find room
         if not placed:
             raise BoardFailed(f"no room for the {p['net']} via of {p['ref']} pad {p['pad']}")
     return tracks, vias

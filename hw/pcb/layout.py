@@ -167,8 +167,8 @@ def place(hat: Hat) -> dict:
         put(c, x + 3.8, y_ina - 1.5, 90.0)
     # PCA9685s top left
     for k, ref in enumerate(sorted(r for r in hat.parts if r.startswith("U2") and len(r) == 3)):
-        put(ref, 8.5 + 12.5 * k, 13.5, 90.0)
-        put(_pop_vcc_cap(cap_refs), 8.5 + 12.5 * k + 5.6, 13.5, 90.0)
+        put(ref, 8.5 + 12.5 * k, 12.4, 90.0)
+        put(_pop_vcc_cap(cap_refs), 8.5 + 12.5 * k + 5.6, 12.4, 90.0)
     # EEPROM near header pins 27/28, its pull-ups and WP jumper beside it
     x_id = cx - 9.5 * pitch + 13 * pitch
     put("U31", x_id, 13.0, 0.0)

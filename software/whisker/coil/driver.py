@@ -138,7 +138,7 @@ def bridge(name: str) -> Bridge:
     try:
         return BRIDGES[name]
     except KeyError:
-        raise DriverError(f"unknown bridge {name!r}; known: {', '.join(BRIDGES)} (hw/bridges.csv)") from None
+        raise DriverError(f"unknown driver {name!r}: no such bridge in hw/bridges.csv; known: {', '.join(BRIDGES)}") from None
 
 
 def design_bridge(design) -> Bridge:
