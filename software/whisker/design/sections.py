@@ -230,6 +230,7 @@ class Mechanics(_Section):
     rotational_stiffness: float = Field(gt=0, le=1e4, description="N*mm/rad about a whisker's pivot")
     damping_ratio: float = Field(ge=0, le=100, description="dimensionless")
     rod_density: float = Field(gt=0, le=25, description="g/cm^3")
+    rod_modulus: float = Field(125.0, gt=0, le=1000, description="GPa, Young's modulus of the rod in bending")
     tip_friction: float = Field(ge=0, le=10, description="Coulomb coefficient of the tips")
 
 
