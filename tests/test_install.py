@@ -33,7 +33,8 @@ pytestmark = pytest.mark.install
 
 CONSTRAINTS = ROOT / "constraints.txt"
 WHEELHOUSE = ROOT / ".ci-wheels"  # gitignored (.ci-*/): the core's wheel files, kept between runs
-HEAVY = ("cadquery", "OCP", "mujoco", "skidl", "kinparse", "magpylib", "trimesh", "manifold3d", "rtree")
+HEAVY = ("cadquery", "OCP", "mujoco", "skidl", "kinparse", "magpylib", "trimesh", "manifold3d", "rtree", "skfem", "SALib",
+         "triangle")
 
 
 def run(cmd, **kw) -> subprocess.CompletedProcess:
@@ -229,7 +230,7 @@ def test_all_install_builds_the_default_design_like_make_stl(full, default_build
     extras = doctor(run([whisker, "doctor"], cwd=home, env=env).stdout)["extras"][1]
     # [ros] (not part of [all]) is there when the test run has it: make installs it on x86-64 Linux
     ros = "ros, " if importlib.util.find_spec("rclpy") is not None else ""
-    assert f"core + cad, explore, hw, magnetics, {ros}sim" in extras, extras
+    assert f"core + cad, explore, fem, hw, magnetics, {ros}sim, tolerance" in extras, extras
     assert ("not installed" not in extras) if ros else extras.endswith("; not installed: ros (pip install "
                                                                         "'whisker-array[ros]')"), extras
     ok(run([whisker, "cad", "build", "--out", "exports", "-q"], cwd=home, env=env))

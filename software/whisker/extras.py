@@ -19,6 +19,8 @@ MODULES = {
     "magnetics": ("magpylib",),
     "pi": ("lgpio", "smbus2"),
     "explore": ("dask", "distributed"),
+    "tolerance": ("SALib",),
+    "fem": ("skfem", "triangle"),
     # ROS 2 client library and message packages (the wheels of the [ros] extra, or a ROS 2 install)
     "ros": ("rclpy", "rcl_interfaces", "sensor_msgs", "geometry_msgs", "std_msgs", "std_srvs", "diagnostic_msgs",
             "builtin_interfaces"),
