@@ -31,8 +31,10 @@ def open_live_source(source: str, design, fps: float, max_frames):
 @click.option("--source", required=True, metavar="SOURCE",
               help="picamera, a camera index, a video file, an image folder, synthetic[:N], or sim (the simulator).")
 @click.option("--fps", type=click.FloatRange(1, 240), default=15.0, show_default=True, help="Frame rate of --source sim.")
-@click.option("--method", type=click.Choice(["authors", "adaptive"]), default="adaptive", show_default=True,
-              help="State estimator (docs/states.md).")
+@click.option("--estimator", "method", type=click.Choice(["authors", "adaptive"]), default="adaptive",
+              show_default=True, help="State estimator (docs/states.md).")
+@click.option("--method", "method_old", type=click.Choice(["authors", "adaptive"]), default=None, hidden=True,
+              help="Deprecated spelling of --estimator.")
 @click.option("--tracker", "track_method", type=click.Choice(["paper", "contour", "blob", "roi", "fit"]), default="roi",
               show_default=True, help="Marker tracking method (docs/tracking.md).")
 @click.option("--rest-frames", type=click.IntRange(1, 1000), default=5, show_default=True,
@@ -44,7 +46,7 @@ def open_live_source(source: str, design, fps: float, max_frames):
 @click.option("--calibration", type=click.Path(dir_okay=False), default=None, help="Lens calibration .npz.")
 @click.option("--mask", type=click.Path(dir_okay=False), default=None, help="Region-of-interest image.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary on stderr.")
-def cli(design, source, fps, method, track_method, rest_frames, record, show, max_frames, calibration, mask, quiet):
+def cli(design, source, fps, method, method_old, track_method, rest_frames, record, show, max_frames, calibration, mask, quiet):
     """Track the markers and label every whisker rest / contact / dynamic, live.
 
     Writes one JSON line per frame on stdout ({"frame", "t", "states", "dx", "dy", "valid", "force_mN",
@@ -55,6 +57,8 @@ def cli(design, source, fps, method, track_method, rest_frames, record, show, ma
     import itertools
 
     import numpy as np
+
+    method = method_old or method
 
     from whisker.camera import SourceError
     from whisker.contact_force import ForceModel
@@ -72,12 +76,13 @@ def cli(design, source, fps, method, track_method, rest_frames, record, show, ma
     except OSError as err:
         fail(f"live: {err}", code=1)
     frames = iter(src)
-    writer = rec_tmp = None
+    writer = rec_tmp = pipe = None
     n_frames, t_proc = 0, 0.0
     try:
         rest = list(itertools.islice(frames, rest_frames))
-        if not rest:
-            fail("live: no frames from the source for the rest baseline")
+        if len(rest) < rest_frames:
+            fail(f"live: the source {source} gave {len(rest)} frame(s), fewer than the {rest_frames} --rest-frames "
+                 f"for the rest baseline: no states", code=1)
         tracker.calibrate(rest)
         pipe = LivePipeline(tracker, make_estimator(method, tracker.n), force_model=ForceModel.from_design(design))
         stream = frames if max_frames is None else itertools.islice(frames, max_frames)
@@ -119,6 +124,11 @@ def cli(design, source, fps, method, track_method, rest_frames, record, show, ma
         if writer is not None:
             writer.release()
             os.replace(rec_tmp, record)
+    ready = pipe is not None and pipe.estimator.ready
+    if n_frames == 0 or not ready:
+        fail(f"live: the source ended after {n_frames} frame(s) past the rest baseline, before the {method} "
+             f"estimator could decide ({pipe.estimator.needs if pipe else 'frames'}): every label was its "
+             f"initial rest", code=1)
     if not quiet:
         click.echo(f"live: {n_frames} frames, {1e3 * t_proc / max(n_frames, 1):.2f} ms/frame tracking + states"
                    + (f"; wrote {record}" if record and writer is not None else ""), err=True)
