@@ -512,3 +512,24 @@ def state_scores(truth, labels) -> dict:
         out["missed"][name] = missed
         out["runs"][name] = runs
     return out
+
+
+def precision_recall(truth, labels) -> dict:
+    """Per-class precision, recall and support of `labels` against `truth` (same-shape int arrays).
+
+    precision[s] = frames labelled s whose truth is s / frames labelled s (NaN when none is
+    labelled s); recall[s] = frames of truth s labelled s / frames of truth s (NaN when none);
+    support[s] = frames of truth s; predicted[s] = frames labelled s."""
+    truth = np.asarray(truth).ravel()
+    labels = np.asarray(labels).ravel()
+    if truth.shape != labels.shape:
+        raise StateInputError(f"truth and labels differ in size ({truth.size}, {labels.size})")
+    out = {"precision": {}, "recall": {}, "support": {}, "predicted": {}}
+    for s, name in enumerate(STATE_NAMES):
+        tp = int(np.sum((truth == s) & (labels == s)))
+        n_true, n_pred = int(np.sum(truth == s)), int(np.sum(labels == s))
+        out["precision"][name] = tp / n_pred if n_pred else float("nan")
+        out["recall"][name] = tp / n_true if n_true else float("nan")
+        out["support"][name] = n_true
+        out["predicted"][name] = n_pred
+    return out

@@ -66,13 +66,18 @@ class SimBackend:
     def sync(self) -> None:
         """Advance the simulation to the clock (at most ``max_catch_up_s`` at once)."""
         now = self.clock()
-        self.advance(min(max(now - self._t_wall, 0.0), self.max_catch_up_s))
-        self._t_wall = now
+        elapsed = max(now - self._t_wall, 0.0)
+        if elapsed > self.max_catch_up_s:        # a long pause: skip what cannot be caught up
+            self._t_wall = now - self.max_catch_up_s
+            elapsed = self.max_catch_up_s
+        steps = int(elapsed / self.dt + 1e-9)
+        self.advance(steps * self.dt)
+        self._t_wall += steps * self.dt          # the remainder is simulated at the next call
 
     def advance(self, seconds: float) -> None:
         from whisker.sim.contract import current_A
 
-        steps = int(seconds / self.dt)
+        steps = int(seconds / self.dt + 1e-9)
         if steps <= 0:
             return
         I = current_A(self.design, self.levels * self.volts_full_scale)   # mean current of the PWM
@@ -91,6 +96,34 @@ class SimBackend:
     def tips_mm(self) -> np.ndarray:
         self.sync()
         return tip_positions_mm(self.design, self.theta)
+
+
+class SimClock:
+    """Simulated time, s: a clock (``clock()``) that moves only when told (``sleep(dt)``).
+
+    A simulated recording (`whisker record --source sim --backend sim`) runs the camera, the
+    simulator, the sequence and the thermal guard on it, so its frames come at exactly 1/fps of
+    simulated time whatever the machine's load. `sleep` advances in steps of at most `period_s`
+    and calls every `hooks` function with the new time after each step (the sequence runner and the
+    guard's watchdog, which a real recording runs in threads on the wall clock)."""
+
+    def __init__(self, period_s: float = 0.01):
+        if not (period_s > 0):
+            raise ValueError(f"sim clock period must be > 0 s, got {period_s}")
+        self.t = 0.0
+        self.period_s = float(period_s)
+        self.hooks: list[Callable[[float], None]] = []
+
+    def __call__(self) -> float:
+        return self.t
+
+    def sleep(self, seconds: float) -> None:
+        end = self.t + max(float(seconds), 0.0)
+        while self.t < end - 1e-12:
+            self.t = min(end, self.t + self.period_s)
+            for hook in list(self.hooks):
+                hook(self.t)
+        self.t = end
 
 
 def actuation_backend(design, **kw) -> SimBackend:
