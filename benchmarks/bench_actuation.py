@@ -1,7 +1,7 @@
 """Actuation safety and recording: what accuracy and crash safety cost.
 
 A. Thermal guard: the temperature estimate against a tight ODE reference (scipy solve_ivp on the
-   same coil model, whisker.thermal.CoilThermal) over a grasp-like drive profile, for several guard
+   same coil model, whisker.coil.thermal.CoilThermal) over a grasp-like drive profile, for several guard
    update periods (the watchdog's drive.guard_period), with the time per update.
 B. What the guard means for the paper's coil: time at full level until the cut, the duty cycle
    under policy "cut", the level "derate" settles at, at the paper's 3 V and at 100 % duty, with
@@ -26,9 +26,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import best_time_s, machine_line, markdown_table, save_figure, write_csv, write_text  # noqa: E402
 
 from whisker.design import default_design  # noqa: E402
-from whisker.driver import series_resistance_ohm  # noqa: E402
-from whisker.guard import ThermalGuard, coil_current_A, full_scale_voltage, volts_to_levels  # noqa: E402
-from whisker.thermal import CoilThermal  # noqa: E402
+from whisker.coil.driver import series_resistance_ohm  # noqa: E402
+from whisker.drive.guard import ThermalGuard, coil_current_A, full_scale_voltage, volts_to_levels  # noqa: E402
+from whisker.coil.thermal import CoilThermal  # noqa: E402
 
 
 class Clock:
@@ -107,7 +107,7 @@ def part_a(design):
 
 def time_to_C(design, level, target_C):
     """Seconds for a coil held at `level` to reach target_C from ambient: solve_ivp on the guard's
-    coil model (RMS heating |level| x I(T)^2 R(T), I(T) = whisker.guard.coil_current_A), or inf."""
+    coil model (RMS heating |level| x I(T)^2 R(T), I(T) = whisker.drive.guard.coil_current_A), or inf."""
     from scipy.integrate import solve_ivp
 
     th = CoilThermal(design)
@@ -171,8 +171,8 @@ def _part_b_one(design, design_label):
 def part_c(design):
     import cv2
 
-    from whisker import render
-    from whisker.recording import Recorder
+    from whisker.vision import render
+    from whisker.data.recording import Recorder
 
     img = render.render_frame(design, render.scene_markers(design, np.full(design.whiskers.count, 5.0)), seed=1)
     rows = []
@@ -235,7 +235,7 @@ def main():
         "",
         f"Machine: {machine_line()}. Default design: {design.coil.resistance:g} ohm coils, "
         f"{full_scale_voltage(design):.3f} V at the coil at 100 % duty ({design.driver.type}, "
-        f"{design.driver.supply_voltage:g} V supply, whisker.driver), first limit {th.limit_C:g} C "
+        f"{design.driver.supply_voltage:g} V supply, whisker.coil.driver), first limit {th.limit_C:g} C "
         f"({th.limit_name}), guard cut-off {th.limit_C - design.drive.guard_margin:g} C. "
         "Produced by `make bench` (benchmarks/bench_actuation.py).",
         "",

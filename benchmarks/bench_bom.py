@@ -38,7 +38,7 @@ def slice_grams(design, name: str, workdir: Path) -> tuple[float, float]:
     import cadquery as cq
 
     from whisker.cad.parts import BY_NAME, print_pose
-    from whisker.printer import load_profile
+    from whisker.design.printer import load_profile
 
     spec = BY_NAME[name]
     stl = workdir / f"{name}.stl"

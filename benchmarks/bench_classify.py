@@ -4,7 +4,7 @@ accuracy costs in time.
 Needs the authors' data through WHISKER_PEER_DATA (skips with a message otherwise).
 
 1. Protocols: the paper's configuration (32 ReLU, Adam lr 0.01, 10 epochs, batch 16, inputs / 229,
-   7:3) under every split protocol of whisker.classify, on the paper's 5 objects and on all 10,
+   7:3) under every split protocol of whisker.data.classify, on the paper's 5 objects and on all 10,
    mean +- sample std over 10 seeds (seed = split and initialisation), next to the paper's 99.17 %.
    The summed confusion matrices of the headline protocols go to docs/images/confusion_*.png.
 2. Cost: hidden size x epochs against accuracy and training time (protocol "trial": whole trials
@@ -37,8 +37,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import numpy as np  # noqa: E402
 
 from common import best_time_s, machine_line, markdown_table, save_figure, write_csv, write_text  # noqa: E402
-from whisker import classify as C  # noqa: E402
-from whisker.dataset import PAPER_OBJECTS, load_peer  # noqa: E402
+from whisker.data import classify as C  # noqa: E402
+from whisker.data.dataset import PAPER_OBJECTS, load_peer  # noqa: E402
 
 DOCS_IMAGES = Path(__file__).resolve().parents[1] / "docs" / "images"
 SEEDS = range(10)
@@ -124,7 +124,7 @@ def sim_sense_check():
     except ImportError as err:
         print(f"bench_classify: simulator not available ({err}); section 4 skipped")
         return []
-    from whisker.dataset import load_csv_folder
+    from whisker.data.dataset import load_csv_folder
     from whisker.design import default_design
 
     scene = Path(__file__).resolve().parents[1] / "software" / "whisker" / "sim" / "scenes" / "classification.toml"
@@ -252,7 +252,7 @@ Inference: `batch_us_per_sample` = best-of-5 time of predicting all test samples
 
 `pose` holds out whole sensor rotations: without augmentation the test rotations are unseen; the
 rotation augmentation must map trained rotations onto them, which works only with the physical pairing
-of index shift and vector rotation (`sense` from the design's camera model, `whisker.dataset.design_sense`).
+of index shift and vector rotation (`sense` from the design's camera model, `whisker.data.dataset.design_sense`).
 
 {markdown_table(sim_rows, ["rotation_pairing", "protocol", "accuracy_mean_pct", "accuracy_std_pct", "n_train", "n_test"], f1) if sim_rows else "(skipped: simulator not available)"}
 

@@ -23,7 +23,7 @@ import numpy as np  # noqa: E402
 
 from common import best_time_s, machine_line, markdown_table, write_csv, write_text  # noqa: E402
 from whisker import coil as C  # noqa: E402
-from whisker import thermal as T  # noqa: E402
+from whisker.coil import thermal as T  # noqa: E402
 from whisker.design import default_design  # noqa: E402
 
 SHAPES = [  # name, turns, inner radius, outer radius, length (mm)

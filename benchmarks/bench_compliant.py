@@ -3,7 +3,7 @@ each 8/4/2 cell to each material parameter across its published range, and the c
 
 Writes benchmarks/results/sim_compliant.md and sim_compliant.csv (the table and the sensitivity
 rows) atomically. Every run of an object sees the same placements as ``whisker sim grasp.toml``
-(whisker.sim.paper.grasp_table's seeding: rng([seed, object index]) over the scene's objects), so the
+(whisker.sim.experiments.paper.grasp_table's seeding: rng([seed, object index]) over the scene's objects), so the
 rigid and compliant columns and every sensitivity row differ only by the contact model.
 
 Run: .venv/bin/python benchmarks/bench_compliant.py   (make sim-sensitivity; part of make bench)
@@ -30,9 +30,9 @@ from common import RESULTS, machine_line  # noqa: E402
 
 from whisker.files import atomic_write_text  # noqa: E402
 from whisker.sim import load_scene, scene_design  # noqa: E402
-from whisker.sim import paper  # noqa: E402
-from whisker.sim.effects import plan  # noqa: E402
-from whisker.sim.kinematics import whisker_body  # noqa: E402
+from whisker.sim.experiments import paper  # noqa: E402
+from whisker.sim.effects.plan import plan  # noqa: E402
+from whisker.coil.kinematics import whisker_body  # noqa: E402
 from whisker.sim.materials import SWEPT  # noqa: E402
 from whisker.sim.scene import scene_with_overrides  # noqa: E402
 from whisker.sim.simulate import simulate  # noqa: E402
@@ -85,7 +85,7 @@ def main() -> None:
     print(f"grasp table, {ATTEMPTS} attempts per cell", flush=True)
     t_r = cells(rigid, design, body, names, places, "rigid")
     t_c = cells(base, design, body, names, places, "compliant")
-    from whisker.sim.experiments import PAPER_GRASP, PAPER_GRASP_TOTAL
+    from whisker.sim.experiments.repeat import PAPER_GRASP, PAPER_GRASP_TOTAL
     lines += [f"## Grasp table: {ATTEMPTS} attempts per cell, the same placements in every column\n",
               "Each cell: rigid / compliant (Wilson 95 % interval of the compliant rate) / paper (%); "
               "'changed': placements whose outcome differs between the two models.\n",

@@ -29,9 +29,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from common import machine_line, markdown_table, write_text  # noqa: E402
 from whisker.design import default_design  # noqa: E402
-from whisker.explore import DaskEngine, JoblibEngine, Study, run  # noqa: E402
-from whisker.explore_grid import grid  # noqa: E402
-from whisker.explore_tasks import TaskCache, design_task, grasp_task, scene_objects  # noqa: E402
+from whisker.explore.study import DaskEngine, JoblibEngine, Study, run  # noqa: E402
+from whisker.explore.grid import grid  # noqa: E402
+from whisker.explore.tasks import TaskCache, design_task, grasp_task, scene_objects  # noqa: E402
 from whisker.resources import scenes_dir  # noqa: E402
 from whisker.sim.scene import load_scene  # noqa: E402
 

@@ -5,8 +5,8 @@ weight, its friction against the tips, the friction a lift by friction alone wou
 object did (highest rise, end height).
 
 Normal force per tip, mN: N = (tau_coil(theta, I(T)) + tau_gravity(theta) - k theta) / l_u, the
-coil torque at the tilt where the tip meets the object (whisker.sim.kinematics.magnetic_torque, the
-current at the coil's temperature at that moment, whisker.guard via the contract), minus the membrane
+coil torque at the tilt where the tip meets the object (whisker.coil.kinematics.magnetic_torque, the
+current at the coil's temperature at that moment, whisker.drive.guard via the contract), minus the membrane
 spring, over the pivot-to-tip lever l_u. A lift by friction alone needs mu sum(N) >= m g over the
 driven tips, so mu_needed = m g / sum(N) (a tip at or past its free tilt presses nothing).
 
@@ -28,9 +28,10 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from common import RESULTS, machine_line  # noqa: E402
 
 from whisker.files import atomic_write_text  # noqa: E402
-from whisker.sim import load_scene, paper, scene_design  # noqa: E402
+from whisker.sim import load_scene, scene_design  # noqa: E402
+from whisker.sim.experiments import paper  # noqa: E402
 from whisker.sim.contract import current_A, full_scale_voltage  # noqa: E402
-from whisker.sim.kinematics import gravity_torque, magnetic_torque, static_equilibrium, whisker_body  # noqa: E402
+from whisker.coil.kinematics import gravity_torque, magnetic_torque, static_equilibrium, whisker_body  # noqa: E402
 from whisker.sim.protocol import T_CLOSE, T_DOWN, Placement  # noqa: E402
 from whisker.sim.scene import scene_with_overrides  # noqa: E402
 
@@ -53,7 +54,7 @@ def main() -> None:
     free = math.degrees(float(static_equilibrium(design, body, np.array([i20])).theta_rad[0]))
     lines = ["# The grip behind the grasp table: tip force, weight, friction needed\n",
              f"Machine: {machine_line()}. Scene `grasp.toml`, design `hw/sensor.toml`: coil {design.coil.turns} turns, "
-             f"{design.coil.resistance:.2f} ohm (whisker.former), membrane k = {design.mechanics.rotational_stiffness:g} N mm/rad, "
+             f"{design.coil.resistance:.2f} ohm (whisker.design.former), membrane k = {design.mechanics.rotational_stiffness:g} N mm/rad, "
              f"grasp at {volts:.2f} V (level {paper.grasp_level(design):.3f}), {i20 * 1e3:.0f} mA at 20 C; "
              f"pivot-to-tip lever {body.tip_m * 1e3:.1f} mm; free tilt (sensor facing down, no object) {free:.2f} deg.\n",
              "Normal force per tip N = (coil torque + gravity torque - k theta) / l_u at the tilt where the tip meets the "

@@ -1,6 +1,6 @@
 """Magnetics benchmark: what accuracy costs for the coil-magnet force k(gap) (N/A).
 
-Every fidelity level of whisker.magnetics, on the default design's coil and magnet, over 60 gaps
+Every fidelity level of whisker.coil.magnetics, on the default design's coil and magnet, over 60 gaps
 from 0.2 to 10 mm (log-spaced), in one run:
 
 - the converged reference: the filament-loop model with 96 Gauss nodes per dimension (its own
@@ -31,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import numpy as np  # noqa: E402
 
 from common import best_time_s, machine_line, markdown_table, save_figure, write_csv, write_text  # noqa: E402
-from whisker import magnetics as M  # noqa: E402
+from whisker.coil import magnetics as M  # noqa: E402
 from whisker.design import default_design  # noqa: E402
 
 TARGET_US, TARGET_ERR = 2.0, 0.005

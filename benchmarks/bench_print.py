@@ -30,7 +30,7 @@ from whisker.cad import printcheck as pc  # noqa: E402
 from whisker.cad.build import build  # noqa: E402
 from whisker.cad.parts import PARTS  # noqa: E402
 from whisker.design import default_design  # noqa: E402
-from whisker.printer import load_profile  # noqa: E402
+from whisker.design.printer import load_profile  # noqa: E402
 
 VARIANTS = {"full": (), "coarse": pc.COARSE_ARGS, "auto supports": ("--support-material",)}
 

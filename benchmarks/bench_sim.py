@@ -40,7 +40,7 @@ def _best(fn, repeat=5):
 def bench_static(design, rows):
     from whisker.sim import plan, scene_from_dict, simulate
     from whisker.sim.contract import current_A
-    from whisker.sim.kinematics import static_equilibrium, whisker_body
+    from whisker.coil.kinematics import static_equilibrium, whisker_body
 
     design = _full_scale(design, 1.0)                     # level 1 = 1 V at the coil
     body = whisker_body(design)
@@ -68,7 +68,7 @@ def bench_static(design, rows):
 
 
 def _full_scale(design, volts):
-    """The design with level 1 = `volts` at the coil (whisker.guard.full_scale_voltage reads it)."""
+    """The design with level 1 = `volts` at the coil (whisker.drive.guard.full_scale_voltage reads it)."""
     from whisker.design import design_from_dict
 
     data = design.model_dump()
@@ -78,7 +78,7 @@ def _full_scale(design, volts):
 
 def bench_free(design, rows, curves):
     from whisker.sim import scene_from_dict, simulate
-    from whisker.sim.kinematics import whisker_body
+    from whisker.coil.kinematics import whisker_body
 
     design = _full_scale(design, 1.0)                     # level 1 = 1 V at the coil
     body = whisker_body(design)
@@ -112,8 +112,8 @@ def bench_free(design, rows, curves):
 
 def bench_grasp(design, rows, curves):
     from whisker.sim import load_scene, plan, simulate
-    from whisker.sim import paper
-    from whisker.sim.kinematics import whisker_body
+    from whisker.sim.experiments import paper
+    from whisker.coil.kinematics import whisker_body
 
     body = whisker_body(design)
     s0 = load_scene(ROOT / "software" / "whisker" / "sim" / "scenes" / "grasp.toml")
@@ -189,14 +189,14 @@ def bench_grasp(design, rows, curves):
 
 def bench_camera(design, rows):
     try:
-        import whisker.render  # noqa: F401
-        import whisker.tracking  # noqa: F401
+        import whisker.vision.render  # noqa: F401
+        import whisker.vision.tracking  # noqa: F401
     except ImportError as err:
         rows.append(("camera end to end", "skipped", float("nan"), "", float("nan"), str(err)))
         return
     from whisker.sim import scene_from_dict, simulate
     from whisker.sim.camera import camera_run
-    from whisker.tracking import CalibrationError
+    from whisker.vision.tracking import CalibrationError
 
     design = _full_scale(design, 3.0)                     # level 1 = the paper's 3 V at the coil
     base = {"scene": {"duration": 1.0, "timestep": 1e-3, "seed": 2}, "sensor": {"facing": "up"},

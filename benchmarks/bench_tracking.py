@@ -1,6 +1,6 @@
 """Tracking benchmark: what accuracy costs in time, every method on the same frames.
 
-1. Marker tracking. Synthetic 640x480 frames (whisker.render) with known subpixel marker centres:
+1. Marker tracking. Synthetic 640x480 frames (whisker.vision.render) with known subpixel marker centres:
    8 whiskers swinging smoothly (0-15 deg retraction, each with its own phase, plus a random
    subpixel jitter), red coil wires, 0.8 px blur, at noise sigma 0, 3, 6, 12, 20, 30 grey levels;
    plus uneven light (+-15 % gradient and 20 % vignette) and stronger blur at sigma 6. Two marker
@@ -32,9 +32,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import numpy as np  # noqa: E402
 
 from common import machine_line, markdown_table, save_figure, write_csv, write_text  # noqa: E402
-from whisker import geometry, render  # noqa: E402
+from whisker.vision import geometry  # noqa: E402
+from whisker.vision import render  # noqa: E402
 from whisker.design import default_design  # noqa: E402
-from whisker.tracking import METHODS, REDNESS_THRESHOLD, Tracker  # noqa: E402
+from whisker.vision.tracking import METHODS, REDNESS_THRESHOLD, Tracker  # noqa: E402
 
 FRAMES = 30
 ROUNDS = 3

@@ -1,5 +1,5 @@
 """Test doubles for the contract modules the simulator calls (notes/contracts.md), used ONLY when
-the real module (issue 4: whisker.coil, whisker.magnetics, whisker.thermal) is not installed yet.
+the real module (issue 4: whisker.coil, whisker.coil.magnetics, whisker.coil.thermal) is not installed yet.
 Numbers follow DESIGN.md section 2 (k(gap) ~0.23/0.084/0.016 N/A at 0.5/2/5 mm, ~7 ohm, 0.23 g Cu).
 """
 
@@ -13,7 +13,7 @@ import numpy as np
 
 
 def _magnetics():
-    m = types.ModuleType("whisker.magnetics")
+    m = types.ModuleType("whisker.coil.magnetics")
 
     def force_per_ampere_N(design, gap_mm, model="table"):
         g = np.asarray(gap_mm, dtype=float)
@@ -40,7 +40,7 @@ def _coil():
 
 
 def _thermal():
-    m = types.ModuleType("whisker.thermal")
+    m = types.ModuleType("whisker.coil.thermal")
 
     class CoilThermal:
         def __init__(self, design):
@@ -59,7 +59,7 @@ def _thermal():
 def install() -> list[str]:
     """Install a double for each contract module that is missing; return the names installed."""
     done = []
-    for name, make in (("whisker.magnetics", _magnetics), ("whisker.coil", _coil), ("whisker.thermal", _thermal)):
+    for name, make in (("whisker.coil.magnetics", _magnetics), ("whisker.coil", _coil), ("whisker.coil.thermal", _thermal)):
         try:
             importlib.import_module(name)
         except ImportError:

@@ -9,12 +9,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from test_actuation_doubles import FakeClock, coil_model
-from whisker.actuation import Actuator, configuration
-from whisker.hbridge import GpioBackend, mock_backend
-from whisker.coil_sequences import SequenceRunner, Step, grasp_sequence, run_sequence
+from whisker.drive.actuation import Actuator, configuration
+from whisker.drive.hbridge import GpioBackend, mock_backend
+from whisker.drive.sequences import SequenceRunner, Step, grasp_sequence, run_sequence
 from whisker.design import default_design
-from whisker.guard import RatingError, ThermalGuard, full_scale_voltage
-from whisker.pins import CoilChannel, pin_map
+from whisker.drive.guard import RatingError, ThermalGuard, full_scale_voltage
+from whisker.drive.pins import CoilChannel, pin_map
 
 
 @pytest.fixture(scope="module")
@@ -319,7 +319,7 @@ def test_threaded_runner_keeps_phase_timing(design):
     """Ticked only by its own thread (the caller never ticks), the phases change on time."""
     import time
 
-    from whisker.coil_sequences import ThreadedSequenceRunner
+    from whisker.drive.sequences import ThreadedSequenceRunner
 
     thermal, current = coil_model(design)
     guard = ThermalGuard(design, thermal=thermal, current_fn=current)
@@ -347,7 +347,7 @@ def test_threaded_runner_keeps_phase_timing(design):
 def test_gpio_backend_without_pins_fails_clearly(design):
     from pathlib import Path
 
-    from whisker.hbridge import open_backend
+    from whisker.drive.hbridge import open_backend
 
     model = Path("/proc/device-tree/model")
     if model.exists() and "Raspberry" in model.read_text(errors="ignore"):
@@ -361,7 +361,7 @@ def test_gpio_backend_without_pins_fails_clearly(design):
 # ---- PCA9685 expander (beyond 11 coils) --------------------------------------------------------
 
 def test_pca9685_exact_channel_duties():
-    from whisker.hbridge import MockI2CBus, Pca9685Backend
+    from whisker.drive.hbridge import MockI2CBus, Pca9685Backend
 
     d = default_design("whiskers.count=12", 'wiring.expander="pca9685"')
     chans = pin_map(d)
@@ -372,7 +372,7 @@ def test_pca9685_exact_channel_duties():
         assert bus.regs[a][0xFE] == 5 and bus.regs[a][0x00] == 0x20  # awake, auto-increment
     act, _, _ = make(d, backend=be)
     levels = np.array([1.0, -1.0, 0.5, -0.25, 0.0, 0.3, 0, 0, 0.9, -0.9, 0, 1e-3])
-    top = __import__("whisker.guard", fromlist=["max_level"]).max_level(d)
+    top = __import__("whisker.drive.guard", fromlist=["max_level"]).max_level(d)
     levels = np.clip(levels, -top, top)
     with act:
         act.apply(levels)
@@ -390,7 +390,7 @@ def test_pca9685_exact_channel_duties():
 
 
 def test_pca9685_frequency_range_and_mock_backend():
-    from whisker.hbridge import MockI2CBus, Pca9685Backend
+    from whisker.drive.hbridge import MockI2CBus, Pca9685Backend
 
     d = default_design("whiskers.count=12", 'wiring.expander="pca9685"', "drive.pwm_frequency=5000")
     with pytest.raises(ValueError, match="24..1526 Hz"):
@@ -405,8 +405,8 @@ def test_pca9685_frequency_range_and_mock_backend():
 # ---- sequence files ---------------------------------------------------------------------------
 
 def test_sequence_file_parses_and_validates(design, tmp_path):
-    from whisker.coil_sequences import load_sequence, sequence_from_dict
-    from whisker.guard import full_scale_voltage
+    from whisker.drive.sequences import load_sequence, sequence_from_dict
+    from whisker.drive.guard import full_scale_voltage
 
     root = __import__("pathlib").Path(__file__).resolve().parents[1]
     steps = load_sequence(design, root / "docs" / "sequences" / "voltage_sweep.toml")

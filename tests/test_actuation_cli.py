@@ -64,7 +64,7 @@ def test_grasp_mock_phases():
     # the paper's 3 V as a level of the coil's full scale (the 7.5 V supply behind the auto series
     # resistor: 3.28 V for the wound coil, so 0.915; the 600-turn coil's 3.22 V gave 0.931)
     from whisker.design import default_design
-    from whisker.guard import full_scale_voltage
+    from whisker.drive.guard import full_scale_voltage
 
     d = default_design()
     lv = round(d.actuation.voltage / full_scale_voltage(d), 3)

@@ -1,6 +1,6 @@
 """Helpers shared by the actuation, guard and recording tests (no tests in here).
 
-`coil_model(design)` is the real coil model (whisker.thermal / whisker.coil), used by most tests.
+`coil_model(design)` is the real coil model (whisker.coil.thermal / whisker.coil), used by most tests.
 `DoubleThermal` / `double_current_A` are test doubles with the same call signatures (a lumped coil:
 heat capacity C, thermal resistance to ambient Rth, copper resistance rising 0.393 %/K), used only
 where a test needs what the real coil cannot give: a coil that heats `speedup` times faster (so a
@@ -21,7 +21,7 @@ def double_current_A(design, volts_at_coil, temperature_C=20.0):
 
 
 class DoubleThermal:
-    """Test double of whisker.thermal.CoilThermal: C dT/dt = I^2 R(T) - (T - Ta) / Rth (exact step
+    """Test double of whisker.coil.thermal.CoilThermal: C dT/dt = I^2 R(T) - (T - Ta) / Rth (exact step
     for a frozen R over dt)."""
 
     def __init__(self, design, heat_capacity_J_per_K=0.1, rth_K_per_W=60.0, speedup=1.0):
@@ -41,9 +41,9 @@ class DoubleThermal:
 
 
 def coil_model(design):
-    """(thermal, current_fn): the real coil model (whisker.thermal.CoilThermal, whisker.coil.current_A)."""
+    """(thermal, current_fn): the real coil model (whisker.coil.thermal.CoilThermal, whisker.coil.current_A)."""
     from whisker.coil import current_A
-    from whisker.thermal import CoilThermal
+    from whisker.coil.thermal import CoilThermal
 
     return CoilThermal(design), current_A
 

@@ -37,10 +37,10 @@ CHILD = textwrap.dedent('''
             LOG.write(f"{{self.info.name}} function {{value}}\\n"); LOG.flush()
 
     from test_actuation_doubles import coil_model
-    from whisker.actuation import Actuator, deenergise_on_signals
-    from whisker.hbridge import GpioBackend
+    from whisker.drive.actuation import Actuator, deenergise_on_signals
+    from whisker.drive.hbridge import GpioBackend
     from whisker.design import default_design
-    from whisker.guard import ThermalGuard
+    from whisker.drive.guard import ThermalGuard
 
     mode = sys.argv[1]
     d = default_design()
@@ -84,7 +84,7 @@ def run_child(tmp_path, mode, sig=None):
 
 def check_log(lines):
     from whisker.design import default_design
-    from whisker.pins import pin_map
+    from whisker.drive.pins import pin_map
 
     coil_pins = {f"GPIO{g}" for c in pin_map(default_design()) for g in (c.forward, c.backward)}
     first_release = next((i for i, l in enumerate(lines) if l.split()[1:] == ["function", "input"]),

@@ -8,8 +8,8 @@ import math
 
 import pytest
 
-from whisker import fasteners as fz
-from whisker import flanges
+from whisker.design import fasteners as fz
+from whisker.design import flanges
 from whisker.cad import adapter, mount, walls
 from whisker.cad.checks import describe_circles, holes, section, to_mesh
 from whisker.design import DesignError, default_design

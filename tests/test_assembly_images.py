@@ -64,7 +64,7 @@ def test_scene_moves_the_new_parts_back_along_their_path():
 
 
 def test_cli_writes_the_images_and_refuses_a_bad_size(tmp_path):
-    from whisker.commands.cad import cli
+    from whisker.commands.build.cad import cli
 
     bad = CliRunner().invoke(cli, ["assembly-images", "--out", str(tmp_path), "--size", "big"])
     assert bad.exit_code == 2 and "--size" in bad.output and "Traceback" not in bad.output

@@ -71,9 +71,9 @@ def test_lead_holes_beside_the_rod_and_marker_face_below(d, mesh):
 
 
 def test_turns_are_what_fits_the_window(d):
-    """coil.turns = "auto": the turns that fit the former's window (whisker.former) at the fill
+    """coil.turns = "auto": the turns that fit the former's window (whisker.design.former) at the fill
     factor, and the resistance is theirs: one source for the force model, the driver and the BOM."""
-    from whisker import former
+    from whisker.design import former
 
     w = coil_calc.winding(d)
     a1, a2, length = former.window(d)

@@ -17,7 +17,7 @@ from whisker.bom import (MEMBRANE_PART, PRINTED_PARTS, BomError, CoilWire, Print
                          bom_rows, cad_measures, cad_volumes, coil_wire, led_strip, make_bom, pla_grams,
                          print_settings, read_print_report)
 from whisker.design import default_design
-from whisker.pins import PinMapError
+from whisker.drive.pins import PinMapError
 
 EXPANDER = 'wiring.expander="pca9685"'
 
@@ -118,7 +118,7 @@ def test_supply_current_is_every_coil_fully_on(vs, n, r):
     resistor, driver.series_resistance) + ceil(N/2) x 0.106 A, below the no-drop bound N Vs / R plus the
     quiescent current, and the BOM rounds it up."""
     from whisker.bom import supply_current_A
-    from whisker.driver import series_resistance_ohm
+    from whisker.coil.driver import series_resistance_ohm
 
     d = default_design(f"driver.supply_voltage={vs!r}", f"whiskers.count={n}", f"coil.resistance={r!r}")
     i = supply_current_A(d)
@@ -209,7 +209,7 @@ def test_awg():
 def test_cli_bom(tmp_path):
     from click.testing import CliRunner
 
-    from whisker.commands.hw import cli
+    from whisker.commands.build.hw import cli
 
     out = tmp_path / "bom6.csv"
     res = CliRunner().invoke(cli, ["bom", "--set", "whiskers.count=6", "--out", str(out)])

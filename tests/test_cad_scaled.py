@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from shapely.geometry import Point
 
 from conftest import circles, load_manifest, load_part_mesh, run_cli, section_polygons
-from whisker import sizing
+from whisker.design import sizing
 from whisker.cad.build import evaluate
 from whisker.cad.sweep import sweep
 from whisker.design import DesignError, default_design

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 from conftest import run_cli
-from whisker.calibration import (DEMO_LENS, MIN_VIEWS, CalibrationInputError, View, board_for, calibrate_views, detect,
+from whisker.bringup.charuco import (DEMO_LENS, MIN_VIEWS, CalibrationInputError, View, board_for, calibrate_views, detect,
                                  random_poses, render_board_view, synthetic_board_views)
 from whisker.design import default_design
-from whisker.lens import Lens, load_lens, undistort_points
-from whisker.render import marker_pixels, render_frame
-from whisker.geometry import rest_marker_xyz
-from whisker.tracking import Tracker
+from whisker.vision.lens import Lens, load_lens, undistort_points
+from whisker.vision.render import marker_pixels, render_frame
+from whisker.vision.geometry import rest_marker_xyz
+from whisker.vision.tracking import Tracker
 
 D = default_design()
 SIZE = (D.camera.width_px, D.camera.height_px)
@@ -135,7 +135,7 @@ def test_blurred_and_partly_visible_boards_are_refused_with_a_reason():
     why = detect(spec, blurred)
     assert isinstance(why, str) and ("blurred" in why or "partly" in why)
     # the board far to the side: a corner of it in the image
-    from whisker.calibration import board_pose
+    from whisker.bringup.charuco import board_pose
 
     r2, t2 = board_pose(spec, D.camera.distance, 0.0, 0.0, 0.0, offset_mm=(75.0, 58.0))
     edge = render_board_view(spec, TRUE, r2, t2, SIZE)
@@ -193,7 +193,7 @@ def test_board_pdf_is_true_scale_and_png_detects(tmp_path):
 
 def test_plane_view_measures_distance_and_mm_per_px():
     """A fronto-parallel board at the marker plane (as the board holder sets it): its distance and mm/px."""
-    from whisker.calibration import board_pose, plane_mm_per_px
+    from whisker.bringup.charuco import board_pose, plane_mm_per_px
 
     spec = board_for(D)
     r, t = board_pose(spec, D.camera.distance, 0.0, 0.0, 10.0)

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from conftest import run_cli
-from whisker.actuation import Actuator
+from whisker.drive.actuation import Actuator
 from whisker.design import default_design, design_from_dict, load_design
-from whisker.guard import ThermalGuard
-from whisker.stiffness_fit import StiffnessError, curve_deg, fit, measure_tilts, steps_volts
-from whisker.tracking import Tracker
-from whisker.wiring_check import Harness, MiswiredSim, SimCamera, VirtualClock
+from whisker.drive.guard import ThermalGuard
+from whisker.bringup.stiffness import StiffnessError, curve_deg, fit, measure_tilts, steps_volts
+from whisker.vision.tracking import Tracker
+from whisker.bringup.wiring import Harness, MiswiredSim, SimCamera, VirtualClock
 
 D = default_design()
 
@@ -96,7 +96,7 @@ def test_cli_writes_the_override_plot_and_report(tmp_path):
 
 
 def test_warm_coils_draw_less_current_and_the_fit_knows():
-    from whisker.guard import coil_current_A
+    from whisker.drive.guard import coil_current_A
 
     device = _device(mechanics__rotational_stiffness=1.6)
     volts, tilts = _tracked_tilts(device, noise=0.0)

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from conftest import run_cli
-from whisker.actuation import Actuator
+from whisker.drive.actuation import Actuator
 from whisker.design import default_design, design_from_dict, load_design
-from whisker.guard import ThermalGuard, volts_to_levels
-from whisker.pins import PinMapError, pin_map
-from whisker.tracking import Tracker
-from whisker.wiring_check import (Harness, MiswiredSim, SimCamera, VirtualClock, WiringError, diagnose,
+from whisker.drive.guard import ThermalGuard, volts_to_levels
+from whisker.drive.pins import PinMapError, pin_map
+from whisker.vision.tracking import Tracker
+from whisker.bringup.wiring import (Harness, MiswiredSim, SimCamera, VirtualClock, WiringError, diagnose,
                                   override_for, pulse_coils, with_override)
 
 D = default_design()
@@ -137,7 +137,7 @@ def test_crosstalk_is_measured_in_px_and_named():
 
 
 def test_a_camera_that_returns_nothing_is_refused():
-    from whisker.tracking import CalibrationError
+    from whisker.vision.tracking import CalibrationError
 
     backend, act, clock = _device(D, FAULT)
     with act, pytest.raises(CalibrationError, match="no usable rest frame"):

@@ -8,8 +8,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from whisker.design_edit import set_keys
-from whisker.wiring_check import diagnose, override_for
+from whisker.design.edit import set_keys
+from whisker.bringup.wiring import diagnose, override_for
 
 
 @st.composite

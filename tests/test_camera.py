@@ -1,4 +1,4 @@
-"""whisker.camera frame sources and the `whisker track` command on replayed frames."""
+"""whisker.vision.camera frame sources and the `whisker track` command on replayed frames."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from conftest import run_cli
-from whisker import render
-from whisker.camera import FolderSource, SourceError, SyntheticSource, VideoSource, open_source
+from whisker.vision import render
+from whisker.vision.camera import FolderSource, SourceError, SyntheticSource, VideoSource, open_source
 from whisker.design import default_design
-from whisker.tracking import Tracker
+from whisker.vision.tracking import Tracker
 
 D = default_design()
 

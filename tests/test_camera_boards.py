@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from whisker import camera_boards as cb
+from whisker.design import camera_boards as cb
 
 REQUIRED = ("rpi_v1_3", "rpi_v2", "rpi_v3", "ov5647_m12")
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from whisker import camera_boards
+from whisker.design import camera_boards
 from whisker.cad import camera_seat
 from whisker.cad.checks import holes, section, to_mesh
 from whisker.cad.shapes import cut_all, cylinder

@@ -1,4 +1,4 @@
-"""whisker.classify and `whisker classify`: the paper's MLP, the split protocols, saved models, bad input."""
+"""whisker.data.classify and `whisker classify`: the paper's MLP, the split protocols, saved models, bad input."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import pytest
 
 from conftest import peer_data, run_cli
 from test_dataset import synthetic, write_tracks
-from whisker import classify as C
-from whisker.dataset import PAPER_OBJECTS, DatasetError, load_peer, write_csv_folder
+from whisker.data import classify as C
+from whisker.data.dataset import PAPER_OBJECTS, DatasetError, load_peer, write_csv_folder
 
 
 def test_paper_configuration():
@@ -52,7 +52,7 @@ def test_split_refusals():
     ds = synthetic()
     with pytest.raises(ValueError, match="unknown protocol"):
         C.split(ds, "leaky", 0)
-    from whisker.dataset import make_dataset
+    from whisker.data.dataset import make_dataset
 
     no_ids = make_dataset(ds.X, ds.y)
     with pytest.raises(DatasetError, match="needs the trial"):
@@ -60,7 +60,7 @@ def test_split_refusals():
     with pytest.raises(DatasetError, match="needs the pose"):
         C.split(no_ids, "pose+rot", 0)
     C.split(no_ids, "random+rot", 0)  # the rotation-group split works without ids
-    from whisker.dataset import augment_rotations
+    from whisker.data.dataset import augment_rotations
 
     with pytest.raises(DatasetError, match="split the recorded samples"):
         C.split(augment_rotations(ds), "random", 0)

@@ -156,7 +156,7 @@ def test_recplot_refuses_unknown_align(session, tmp_path):
 # -- whisker classify --------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def data(tmp_path_factory):
-    from whisker.dataset import write_csv_folder
+    from whisker.data.dataset import write_csv_folder
 
     base = tmp_path_factory.mktemp("cls")
     write_csv_folder(synthetic(n_obj=3, trials=3, poses=6, R=2, W=8), base / "data")
@@ -171,7 +171,7 @@ def test_classify_refuses_a_single_class(data, tmp_path):
 
 
 def test_classify_refuses_too_few_rows_per_class(tmp_path):
-    from whisker.dataset import write_csv_folder
+    from whisker.data.dataset import write_csv_folder
 
     ds = synthetic(n_obj=2, trials=1, poses=1, R=2, W=8)      # one sample per object
     write_csv_folder(ds, tmp_path / "d")
@@ -224,7 +224,7 @@ def test_model_files_that_are_not_ours(model, data, tmp_path, content):
 
 
 def test_model_carries_version_and_layout(model):
-    from whisker.classify import FEATURE_LAYOUT, MODEL_FORMAT, load_model
+    from whisker.data.classify import FEATURE_LAYOUT, MODEL_FORMAT, load_model
 
     b = load_model(model)
     assert b["format"] == MODEL_FORMAT and b["feature_layout"] == FEATURE_LAYOUT and b["feature_limit_px"] > 0
@@ -294,13 +294,13 @@ def test_recording_on_a_full_disk_keeps_every_complete_frame(tmp_path, monkeypat
     frame images. Either way: one line, exit 1, every complete frame readable, recplot works."""
     import cv2
 
-    from whisker.recording import load_session
+    from whisker.data.recording import load_session
 
     disk = tmp_path / "disk"
     real = _small_tmpfs(disk)
     try:
         if not real:
-            import whisker.recording as R
+            import whisker.data.recording as R
 
             calls = {"n": 0}
             orig = R.atomic_write_bytes

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from whisker import coil as C
-from whisker import magnetics as M
+from whisker.coil import magnetics as M
 from whisker.design import DesignError, default_design
 
 D = default_design()
@@ -217,7 +217,7 @@ def test_extreme_gaps_give_finite_answers(gap):
 
 
 def test_report_json_finite_for_far_gap():
-    from whisker.coil_report import build_report, format_report
+    from whisker.coil.report import build_report, format_report
     from whisker.files import atomic_write_json
     import tempfile, os
 

@@ -1,4 +1,4 @@
-"""whisker.driver and the `whisker coil` CLI."""
+"""whisker.coil.driver and the `whisker coil` CLI."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import math
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from whisker import driver as DR
+from whisker.coil import driver as DR
 from whisker.design import default_design
 
 from conftest import run_cli

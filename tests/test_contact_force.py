@@ -1,4 +1,4 @@
-"""Tip force and contact direction from the deflection and the membrane stiffness (whisker.contact_force):
+"""Tip force and contact direction from the deflection and the membrane stiffness (whisker.sensing.contact_force):
 properties of the formula (hypothesis) and the estimate against a known force in MuJoCo."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from whisker.contact_force import ForceModel, tip_force
+from whisker.sensing.contact_force import ForceModel, tip_force
 from whisker.design import load_design
 
 DESIGN = load_design()
@@ -61,7 +61,7 @@ def test_small_deflection_force_is_stiffness_times_tilt_over_the_tip_lever(dx, d
     assert f.force_mN[0] == pytest.approx(want, rel=1e-9, abs=1e-12)
     # the tip (and the push on it) moves opposite the marker: the force is anti-parallel to the
     # marker's displacement in the sensor frame
-    from whisker.geometry import image_to_sensor
+    from whisker.vision.geometry import image_to_sensor
     sx, sy = image_to_sensor(DESIGN, dx, dy)
     if r > 1e-6:
         assert f.fx_mN[0] * sx + f.fy_mN[0] * sy < 0
@@ -99,9 +99,9 @@ def test_a_coil_pulling_a_held_whisker_means_the_object_pushes_it_outward():
 def test_estimate_matches_a_known_force_in_mujoco(force_mN, direction_deg, whisker, level, mag_pct, dir_deg):
     pytest.importorskip("mujoco", reason="MuJoCo (the `sim` extra) applies the known force")
     from conftest import ROOT
-    from whisker.force_check import applied_force_trial
+    from whisker.sim.experiments.force_check import applied_force_trial
     from whisker.sim import load_scene, scene_design
-    from whisker.sim.paper import experiment_objects
+    from whisker.sim.experiments.paper import experiment_objects
 
     scene = load_scene(ROOT / "software/whisker/sim/scenes/grasp.toml")
     tr = applied_force_trial(scene, scene_design(scene), experiment_objects(scene)[0], force_mN, direction_deg,
@@ -111,14 +111,14 @@ def test_estimate_matches_a_known_force_in_mujoco(force_mN, direction_deg, whisk
 
 
 def test_live_pipeline_streams_the_force_of_known_tilts_and_draws_it():
-    """Rendered frames of whiskers retracted by known tilts (whisker.camera.SyntheticSource) through the
+    """Rendered frames of whiskers retracted by known tilts (whisker.vision.camera.SyntheticSource) through the
     live pipeline: force = k theta / (l_u cos theta), pointing from each whisker toward the centre."""
     import itertools
 
-    from whisker.camera import SyntheticSource
-    from whisker.live import FORCE_BGR, LivePipeline, annotate
-    from whisker.states import make_estimator
-    from whisker.tracking import Tracker
+    from whisker.vision.camera import SyntheticSource
+    from whisker.sensing.live import FORCE_BGR, LivePipeline, annotate
+    from whisker.sensing.states import make_estimator
+    from whisker.vision.tracking import Tracker
 
     src = SyntheticSource(DESIGN, 30, amplitude_deg=8.0, period_frames=20, noise_sigma=1.0)
     trk = Tracker(DESIGN, "roi")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from shapely.geometry import Point, box
 
-from whisker import fasteners as fz
+from whisker.design import fasteners as fz
 from whisker.cad import cover, walls
 from whisker.cad.checks import describe_circles, holes, section, to_mesh
 from whisker.design import default_design

@@ -1,4 +1,4 @@
-"""whisker.dataset: the layout, rotation augmentation, loaders and their refusals of bad input."""
+"""whisker.data.dataset: the layout, rotation augmentation, loaders and their refusals of bad input."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import peer_data
-from whisker.dataset import (PEER_REST_PX, DatasetError, augment_rotations, load_csv_folder, load_peer,
+from whisker.data.dataset import (PEER_REST_PX, DatasetError, augment_rotations, load_csv_folder, load_peer,
                              load_tracks, make_dataset, rotate, sense_from_positions, write_csv_folder)
 
 
@@ -127,7 +127,7 @@ def test_csv_folder_refusals(tmp_path):
 # -- tracks loader -------------------------------------------------------------------------------------------
 def write_tracks(path, frames=4, W=8, sense=1, invalid=()):
     """A tracks CSV in `whisker track`'s own format (its header; an untracked marker's numbers empty)."""
-    from whisker.commands.track import CSV_HEADER
+    from whisker.vision.trackfile import CSV_HEADER
 
     cols = CSV_HEADER.split(",")
     pos = ring(W, sense) + 240
@@ -176,7 +176,7 @@ def test_tracks_invalid_whiskers(tmp_path):
 
 
 def test_pose_major_folder_and_design_defaults(tmp_path):
-    from whisker.dataset import design_sense
+    from whisker.data.dataset import design_sense
     from whisker.design import default_design
 
     ds = synthetic(n_obj=2, trials=3, poses=4, R=1, W=6)
@@ -201,7 +201,7 @@ def test_pose_major_folder_and_design_defaults(tmp_path):
 
 
 def test_design_whisker_count(tmp_path):
-    from whisker.dataset import check_design
+    from whisker.data.dataset import check_design
     from whisker.design import default_design
 
     ds = synthetic(W=6)

@@ -23,8 +23,8 @@ from pathlib import Path
 import pytest
 
 from conftest import load_manifest
-from whisker import fasteners
-from whisker import flanges
+from whisker.design import fasteners
+from whisker.design import flanges
 from whisker.cad import adapter
 from whisker.design import default_design
 
@@ -65,7 +65,7 @@ def _pla(c: Ctx, which: str) -> float:
 
 
 def _leads(c: Ctx) -> dict:
-    from whisker import leads
+    from whisker.design import leads
     return leads.length_report(c.d)
 
 
@@ -160,7 +160,7 @@ CHECKS = [
 
 #: Numbers with "mm" in FILES that are not CAD dimensions of the default design, and why.
 EXEMPT = [
-    (r"0\.5 mm steps", "a sizing rule's step (whisker.sizing)"),
+    (r"0\.5 mm steps", "a sizing rule's step (whisker.design.sizing)"),
     (r"6 whiskers on a 10 mm ring", "a command-line example"),
     (r"--set whiskers\.ring_radius=10", "a command-line example"),
     (r"about 20 px, or 1\.9 mm, at the markers", "measured in the authors' frame"),

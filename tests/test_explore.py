@@ -22,7 +22,7 @@ pytest.importorskip("mujoco", reason="MuJoCo (pip install mujoco) is needed for 
 
 from whisker.cli import main  # noqa: E402
 from whisker.design import default_design, load_design  # noqa: E402
-from whisker.explore_grid import ExploreError, grid, parse_values  # noqa: E402
+from whisker.explore.grid import ExploreError, grid, parse_values  # noqa: E402
 
 WHISKER = Path(sys.executable).with_name("whisker")
 #: the small grid: the paper's sensor and a 6-whisker one; 2 attempts, 1 per task (so a kill lands mid-run)
@@ -153,12 +153,12 @@ def test_killed_run_resumes_to_the_same_table(serial, tmp_path):
 # ---- refusals, Pareto designs, failures, hostile input -------------------------------------------
 
 def test_cad_refusal_is_recorded_and_a_pareto_design_loads(tmp_path):
-    """A ring 1 mm inside the small-ring bound (whisker.sizing.crowding_bound_radius) with 6 whiskers: the
+    """A ring 1 mm inside the small-ring bound (whisker.design.sizing.crowding_bound_radius) with 6 whiskers: the
     CAD checks refuse it (coils collide at full swing, as `make sweep` says); R = 12 mm builds, is
     simulated and is written as a design file that loads to the same design."""
     pytest.importorskip("cadquery", reason="CadQuery ([cad]) runs the CAD checks")
     from whisker.design import default_design
-    from whisker.sizing import crowding_bound_radius
+    from whisker.design.sizing import crowding_bound_radius
 
     inside = math.floor(crowding_bound_radius(default_design("whiskers.count=6"))) - 1
     out = tmp_path / "cad"
@@ -178,7 +178,7 @@ def test_cad_refusal_is_recorded_and_a_pareto_design_loads(tmp_path):
 def test_a_failing_task_is_reported_with_its_design_and_the_rest_finish(tmp_path, monkeypatch):
     """One object's grasp raises: its design is marked failed naming the task, the other design is
     complete, the command exits 1 with one line; a rerun retries only the failed tasks."""
-    import whisker.sim.paper as paper
+    import whisker.sim.experiments.paper as paper
 
     real = paper.grasp_attempt
 
@@ -222,7 +222,7 @@ def test_task_cache_keeps_inf_and_treats_a_broken_file_as_missing(tmp_path):
     finished task's (e.g. cut short by a full disk) is run again, not trusted."""
     import math
 
-    from whisker.explore_tasks import TaskCache
+    from whisker.explore.tasks import TaskCache
 
     c = TaskCache(tmp_path)
     c.put("d1", "design.json", {"time_to_limit_s": math.inf, "held": [True, False], "limit": "PLA softening"})

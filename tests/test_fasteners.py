@@ -1,4 +1,4 @@
-"""The fastener table and the hole / screw-length / BOM rules built on it (whisker.fasteners)."""
+"""The fastener table and the hole / screw-length / BOM rules built on it (whisker.design.fasteners)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from whisker import fasteners as fz
+from whisker.design import fasteners as fz
 
 SIZES = ("M2", "M2.5", "M3", "M5", "M6")
 

@@ -1,4 +1,4 @@
-"""whisker.geometry: the paper's equations, the exact ray/sphere model and the camera model."""
+"""whisker.vision.geometry: the paper's equations, the exact ray/sphere model and the camera model."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from whisker import geometry as g
+from whisker.vision import geometry as g
 from whisker.design import default_design
 
 D = default_design()

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from whisker.grasp_control import ControlParams, GraspController
+from whisker.sensing.grasp_control import ControlParams, GraspController
 
 N = 8
 FPS = 15.0
@@ -99,7 +99,7 @@ def test_no_contact_releases():
 
 def test_thermal_guard_limits_the_levels():
     from whisker.design import load_design
-    from whisker.guard import ThermalGuard
+    from whisker.drive.guard import ThermalGuard
 
     design = load_design()
     guard = ThermalGuard(design, clock=lambda: 0.0, initial_C=200.0)     # already far too hot
@@ -114,8 +114,8 @@ def test_thermal_guard_limits_the_levels():
 def grasp_setup():
     pytest.importorskip("mujoco", reason="MuJoCo (the `sim` extra) is needed for the simulator backend")
     from whisker.sim import load_scene, scene_design
-    from whisker.sim.closed_loop import free_closing_px
-    from whisker.sim.paper import experiment_objects
+    from whisker.sim.experiments.closed_loop import free_closing_px
+    from whisker.sim.experiments.paper import experiment_objects
 
     from conftest import ROOT
     scene = load_scene(ROOT / "software/whisker/sim/scenes/grasp.toml")
@@ -125,14 +125,14 @@ def grasp_setup():
 
 
 def _rig(setup, obj, placement=None, cfg=tuple(range(8))):
-    from whisker.sim.closed_loop import SimGraspRig
-    from whisker.sim.paper import Placement
+    from whisker.sim.experiments.closed_loop import SimGraspRig
+    from whisker.sim.experiments.paper import Placement
     scene, design, objs, exp = setup
     return SimGraspRig(scene, design, objs[obj], list(cfg), placement or Placement(), fps=FPS)
 
 
 def test_sim_closed_loop_holds_the_foam_ball_with_less_energy(grasp_setup):
-    from whisker.sim.closed_loop import OpenLoopController, run_grasp
+    from whisker.sim.experiments.closed_loop import OpenLoopController, run_grasp
     exp = grasp_setup[3]
     rig = _rig(grasp_setup, "foam ball")
     opened = run_grasp(rig, OpenLoopController(8, range(8), rig.params()), hold_height_mm=5)
@@ -150,8 +150,8 @@ def test_sim_table_guards_both_loops_and_the_closed_loop_spends_less_per_held_gr
     closed loop (as on the hardware). With the design's guard (derating from cut-off minus
     drive.guard_derate_band) both hold the foam ball with 8 whiskers and the closed loop spends less
     coil energy per successful grasp (issue 16); the table says which comparison it is."""
-    from whisker.guard import ThermalGuard
-    from whisker.sim.grasp_closed import closed_loop_markdown, closed_loop_table
+    from whisker.drive.guard import ThermalGuard
+    from whisker.sim.experiments.grasp_closed import closed_loop_markdown, closed_loop_table
 
     scene, design, _, _ = grasp_setup
     tab = closed_loop_table(scene, design, attempts=1, configs=[list(range(8))], objects=["foam ball"])
@@ -166,7 +166,7 @@ def test_sim_table_guards_both_loops_and_the_closed_loop_spends_less_per_held_gr
 
 
 def test_sim_lost_marker_during_the_lift_ends_with_coils_off(grasp_setup):
-    from whisker.sim.closed_loop import run_grasp
+    from whisker.sim.experiments.closed_loop import run_grasp
     rig = _rig(grasp_setup, "foam ball")
     ctl = GraspController(8, range(8), rig.params(), grasp_setup[3])
 
@@ -179,7 +179,7 @@ def test_sim_lost_marker_during_the_lift_ends_with_coils_off(grasp_setup):
 
 
 def test_sim_dropped_frames_end_with_coils_off(grasp_setup):
-    from whisker.sim.closed_loop import run_grasp
+    from whisker.sim.experiments.closed_loop import run_grasp
     rig = _rig(grasp_setup, "foam ball")
     ctl = GraspController(8, range(8), rig.params(), grasp_setup[3])
     r = run_grasp(rig, ctl, hold_height_mm=5, drop_frame=lambda rg: 0.6 < rg.t < 0.85)
@@ -188,8 +188,8 @@ def test_sim_dropped_frames_end_with_coils_off(grasp_setup):
 
 
 def test_sim_contact_before_actuation_never_drives_a_coil(grasp_setup):
-    from whisker.sim.closed_loop import run_grasp
-    from whisker.sim.paper import Placement
+    from whisker.sim.experiments.closed_loop import run_grasp
+    from whisker.sim.experiments.paper import Placement
     rig = _rig(grasp_setup, "foam ball", Placement(dx=9.0, dy=0.0))      # the ball under whisker 0's tip
     ctl = GraspController(8, range(8), rig.params(), grasp_setup[3])
     r = run_grasp(rig, ctl, hold_height_mm=5)
@@ -240,10 +240,10 @@ def test_a_derated_hold_is_judged_at_the_level_the_coils_got():
 
 def test_settle_time_is_when_a_free_whisker_stays_within_the_tolerance():
     """settle_time_s from the design's stiffness, inertia and damping: a free whisker stepped in the
-    time domain (whisker.sim.kinematics.step_free) stays within the tolerance of its final tilt after it."""
+    time domain (whisker.coil.kinematics.step_free) stays within the tolerance of its final tilt after it."""
     from whisker.design import load_design
-    from whisker.grasp_control import settle_time_s
-    from whisker.sim.kinematics import step_free, whisker_body
+    from whisker.sensing.grasp_control import settle_time_s
+    from whisker.coil.kinematics import step_free, whisker_body
 
     design = load_design()
     body = whisker_body(design)

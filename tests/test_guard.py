@@ -11,10 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from test_actuation_doubles import DoubleThermal, FakeClock, coil_model, double_current_A
-from whisker.actuation import Actuator
-from whisker.hbridge import mock_backend
+from whisker.drive.actuation import Actuator
+from whisker.drive.hbridge import mock_backend
 from whisker.design import default_design
-from whisker.guard import (RatingError, ThermalGuard, check_driver, check_levels, full_scale_voltage,
+from whisker.drive.guard import (RatingError, ThermalGuard, check_driver, check_levels, full_scale_voltage,
                            max_level, volts_to_levels)
 
 
@@ -255,7 +255,7 @@ def test_allowed_never_exceeds_request(levels, temp):
 
 
 def test_full_scale_voltage_from_driver_model_or_measured():
-    from whisker import driver
+    from whisker.coil import driver
 
     design = default_design(NO_RESISTOR)  # the bare bridge (tests/test_series_resistor.py: with one)
     br = driver.bridge(design.driver.type)
@@ -272,7 +272,7 @@ def test_full_scale_voltage_from_driver_model_or_measured():
 
 def test_default_supply_limits_level_and_reaches_the_papers_3V():
     """Without the series resistor (driver.series_resistance = 0): 7.5 V into an L298N: 5.24 V at the coil at level 1, so level 1 is refused, the paper's 3 V is a
-    level below 1 and the rating's 3.3 V is the largest level (whisker.driver typ drop 1.40 V +
+    level below 1 and the rating's 3.3 V is the largest level (whisker.coil.driver typ drop 1.40 V +
     1.15 ohm x I: I = (7.5 - 1.40) / (7 + 1.15) = 0.748 A, 0.748 A x 7 ohm = 5.24 V)."""
     design = default_design("coil.resistance=7.0", NO_RESISTOR)  # the paper's measured coil
     vfs = full_scale_voltage(design)

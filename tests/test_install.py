@@ -80,7 +80,7 @@ def test_wheel_ships_every_data_file(wheel):
         expected = {f"{package}/{name}" for name in data(folder)}
         assert expected and expected <= names, sorted(expected - names)
     assert not [n for n in names if n.startswith("whisker/hw/") and n.endswith(".py") and n != "whisker/hw/__init__.py"]
-    assert {"whisker/cad/build.py", "whisker/pcb/netlist.py", "whisker/commands/doctor.py"} <= names
+    assert {"whisker/cad/build.py", "whisker/pcb/netlist.py", "whisker/commands/sensor/doctor.py"} <= names
 
 
 def make_venv(path: Path) -> Path:
@@ -164,7 +164,7 @@ def test_core_runs_the_sensor_commands_from_outside_the_checkout(core, tmp_path)
     assert res.stderr.startswith("done: peak coil temperature") and "guard trips [0, 0, 0, 0, 0, 0, 0, 0]" in res.stderr
 
     ds = synthetic(n_obj=3, trials=3, poses=6, R=8, W=8)
-    from whisker.dataset import write_csv_folder
+    from whisker.data.dataset import write_csv_folder
 
     write_csv_folder(ds, tmp_path / "data")
     model = tmp_path / "m.joblib"

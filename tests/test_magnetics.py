@@ -1,4 +1,4 @@
-"""whisker.magnetics: every fidelity level against the converged reference and magpylib; hard cases."""
+"""whisker.coil.magnetics: every fidelity level against the converged reference and magpylib; hard cases."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from whisker import magnetics as M
+from whisker.coil import magnetics as M
 from whisker.design import default_design
 
 D = default_design()

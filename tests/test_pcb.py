@@ -14,7 +14,7 @@ from conftest import ROOT, run_cli
 from whisker.design import default_design
 from whisker.pcb import build as pcb_build
 from whisker.pcb import netlist, pinout
-from whisker.pins import HEADER_PIN, PinMapError, modules_needed, pin_map
+from whisker.drive.pins import HEADER_PIN, PinMapError, modules_needed, pin_map
 
 EXPANDER = 'wiring.expander="pca9685"'
 GENERATED = ROOT / "hw" / "pcb" / "generated"
@@ -144,7 +144,7 @@ def test_pinout_rows():
 def test_cli_pcb(tmp_path):
     from click.testing import CliRunner
 
-    from whisker.commands.hw import cli
+    from whisker.commands.build.hw import cli
 
     out = tmp_path / "pcb6"
     res = CliRunner().invoke(cli, ["pcb", "--set", "whiskers.count=6", "--out", str(out)])

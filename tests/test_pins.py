@@ -1,11 +1,11 @@
-"""The single pin map (whisker.pins): reserved pins stay free, no pin is used twice, and a coil
+"""The single pin map (whisker.drive.pins): reserved pins stay free, no pin is used twice, and a coil
 count the Pi cannot serve is refused with a message that names the alternative."""
 
 import pytest
 from hypothesis import given, settings, strategies as st
 
 from whisker.design import DesignError, default_design
-from whisker.pins import (HEADER_PIN, RESERVED, PinMapError, free_gpio, max_direct_coils,
+from whisker.drive.pins import (HEADER_PIN, RESERVED, PinMapError, free_gpio, max_direct_coils,
                           modules_needed, pin_map, used_gpio)
 
 
@@ -77,7 +77,7 @@ def test_modules_needed():
 
 
 def test_supply_warnings_follow_the_l298_datasheet():
-    from whisker.pins import module_makes_own_logic_supply, supply_warnings
+    from whisker.drive.pins import module_makes_own_logic_supply, supply_warnings
 
     assert default_design().driver.supply_voltage == 7.5
     assert supply_warnings(default_design()) == []  # the default 7.5 V is within the datasheet
@@ -93,7 +93,7 @@ def test_supply_warnings_follow_the_l298_datasheet():
 
 
 def test_header_table_is_complete_and_consistent():
-    from whisker.pins import HEADER_POWER
+    from whisker.drive.pins import HEADER_POWER
 
     assert sorted(HEADER_PIN) == list(range(28))  # BCM 0..27
     phys = sorted([*HEADER_PIN.values(), *HEADER_POWER])
@@ -107,7 +107,7 @@ def test_header_table_is_complete_and_consistent():
 def test_supply_warnings_at_any_supply(vs):
     """L298N: a caution below VS_min = 3.3 V + 2.5 V = 5.8 V, a second one below VSS_min = 4.5 V, none
     from 5.8 V up; the module makes its own logic supply above VSS_max = 7 V."""
-    from whisker.pins import module_makes_own_logic_supply, supply_warnings
+    from whisker.drive.pins import module_makes_own_logic_supply, supply_warnings
 
     d = default_design(f"driver.supply_voltage={vs!r}")
     w = supply_warnings(d)

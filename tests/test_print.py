@@ -24,7 +24,7 @@ from hypothesis import given, settings, strategies as st
 from conftest import ROOT, load_manifest, run_cli
 from whisker.cad import printcheck as pc
 from whisker.design import DesignError, default_design, design_from_dict
-from whisker.printer import ProfileError, bed_extent, load_profile, parse_ini
+from whisker.design.printer import ProfileError, bed_extent, load_profile, parse_ini
 
 PROFILE = ROOT / "hw" / "printer" / "prusa_mk3s_pla_0.2mm.ini"
 

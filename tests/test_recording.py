@@ -16,7 +16,7 @@ import pytest
 
 from conftest import run_cli
 from whisker.design import default_design
-from whisker.recording import Recorder, RecordingError, load_session, read_table
+from whisker.data.recording import Recorder, RecordingError, load_session, read_table
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -98,7 +98,7 @@ CHILD = textwrap.dedent('''
     sys.path.insert(0, {tests!r})
     from test_recording import frame_image
     from whisker.design import default_design
-    from whisker.recording import Recorder
+    from whisker.data.recording import Recorder
 
     d = default_design()
     rec = Recorder(sys.argv[1], d, fsync=sys.argv[2] == "fsync")

@@ -1,4 +1,4 @@
-"""Image orientation, marker radius and ring scale measured on a rest frame (whisker.rest_geometry)."""
+"""Image orientation, marker radius and ring scale measured on a rest frame (whisker.vision.rest_geometry)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import pytest
 
 from conftest import peer_data
 from whisker.design import default_design
-from whisker.render import render_frame, scene_markers
-from whisker.rest_geometry import RestGeometryError, measure
-from whisker.tracking import Tracker
+from whisker.vision.render import render_frame, scene_markers
+from whisker.vision.rest_geometry import RestGeometryError, measure
+from whisker.vision.tracking import Tracker
 
 D = default_design()
 

@@ -1,4 +1,4 @@
-"""The closed-loop grasp on the hardware path (whisker.rig): the simulator's camera frames written to a
+"""The closed-loop grasp on the hardware path (whisker.sensing.rig): the simulator's camera frames written to a
 folder and replayed through tracker -> GraspController -> Actuator on gpiozero's MockFactory pins.
 The hardware path runs the same controller code as the sim path and must take the same decisions on
 the same frames; every fail-safe stop leaves every pin low."""
@@ -13,8 +13,8 @@ import time
 import numpy as np
 import pytest
 
-from whisker.grasp_control import GraspController
-from whisker.guard import ThermalGuard
+from whisker.sensing.grasp_control import GraspController
+from whisker.drive.guard import ThermalGuard
 
 FPS = 15.0
 REST = 5
@@ -33,9 +33,9 @@ def recording(tmp_path_factory):
 
     from conftest import ROOT
     from whisker.sim import load_scene, scene_design
-    from whisker.sim.closed_loop import SimGraspRig, free_closing_px
-    from whisker.sim.paper import Placement, experiment_objects
-    from whisker.tracking import Tracker
+    from whisker.sim.experiments.closed_loop import SimGraspRig, free_closing_px
+    from whisker.sim.experiments.paper import Placement, experiment_objects
+    from whisker.vision.tracking import Tracker
 
     scene = load_scene(ROOT / "software/whisker/sim/scenes/grasp.toml")
     design = scene_design(scene)
@@ -79,11 +79,11 @@ def recording(tmp_path_factory):
 
 
 def _hardware(rec, folder=None, *, log=None, guard_C=None, watchdog_s=30.0, on_frame=None, source=None, arm=None):
-    from whisker.actuation import Actuator
-    from whisker.hbridge import mock_backend
-    from whisker.camera import FolderSource
-    from whisker.rig import HandHeldArm, HardwareRig
-    from whisker.tracking import Tracker
+    from whisker.drive.actuation import Actuator
+    from whisker.drive.hbridge import mock_backend
+    from whisker.vision.camera import FolderSource
+    from whisker.sensing.rig import HandHeldArm, HardwareRig
+    from whisker.vision.tracking import Tracker
 
     design = rec["design"]
     backend = mock_backend(design)
@@ -102,7 +102,7 @@ def _hardware(rec, folder=None, *, log=None, guard_C=None, watchdog_s=30.0, on_f
 
 def _derate_slope_per_s(design, level):
     """Upper bound of how fast the guard lowers `level` (per s) inside its derate band: the coil's
-    heating rate at the band's start, at that level, over the band's width (whisker.guard)."""
+    heating rate at the band's start, at that level, over the band's width (whisker.drive.guard)."""
     g = ThermalGuard(design, clock=lambda: 0.0)
     g.temperatures[:] = g.derate_from_C
     dt = 0.01
@@ -168,7 +168,7 @@ def _assert_safe_abort(res, backend, log, words):
 def test_lost_marker_in_the_lift_turns_every_coil_off(recording, tmp_path):
     import cv2
 
-    from whisker.tracking import Tracker
+    from whisker.vision.tracking import Tracker
 
     folder = _copy(recording, tmp_path)
     files = sorted(folder.glob("*.png"))
@@ -221,7 +221,7 @@ def test_thermal_cut_turns_every_coil_off(recording, tmp_path):
 
 
 def test_a_stalled_camera_turns_the_coils_off_without_waiting_for_a_frame(recording, tmp_path):
-    from whisker.camera import FolderSource
+    from whisker.vision.camera import FolderSource
 
     k = _frame_of(recording, "close", 1)
     during = []
@@ -290,7 +290,7 @@ def test_cli_refuses_options_of_the_other_backend(tmp_path):
 def test_a_lossless_video_of_the_recording_replays_to_the_same_decisions(recording, tmp_path):
     import cv2
 
-    from whisker.camera import VideoSource
+    from whisker.vision.camera import VideoSource
 
     files = sorted(recording["folder"].glob("*.png"))
     times = [float(r["time_s"]) for r in csv.DictReader(open(recording["folder"] / "times.csv"))]
@@ -321,7 +321,7 @@ def test_a_lossless_video_of_the_recording_replays_to_the_same_decisions(recordi
 def test_folder_times_csv_is_checked(tmp_path):
     import cv2
 
-    from whisker.camera import FolderSource, SourceError
+    from whisker.vision.camera import FolderSource, SourceError
 
     for i in range(3):
         cv2.imwrite(str(tmp_path / f"f{i}.png"), np.zeros((8, 8, 3), np.uint8))

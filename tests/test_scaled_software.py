@@ -44,7 +44,7 @@ def test_sim_camera_tracker_and_geometry_give_the_tips_back(overrides):
 def test_pin_map_netlist_and_bom_count_n(overrides):
     from whisker.bom import bom_rows, coil_wire, print_settings
     from whisker.pcb import netlist
-    from whisker.pins import modules_needed, pin_map
+    from whisker.drive.pins import modules_needed, pin_map
 
     d = default_design(*overrides)
     n = d.whiskers.count
@@ -66,7 +66,7 @@ def test_pin_map_netlist_and_bom_count_n(overrides):
 def test_rotation_steps_by_360_over_n(n):
     """Turning the whole sensor by one whisker spacing maps a radial deflection pattern onto itself,
     with each whisker's magnitude moved one index on, for the design's own whisker angles."""
-    from whisker.dataset import rotate
+    from whisker.data.dataset import rotate
 
     d = default_design(f"whiskers.count={n}")
     a = np.radians(d.whisker_angles_deg)

@@ -22,7 +22,7 @@ def test_coils_wider_than_the_seat_opening_are_refused_naming_the_step():
     """An 18 mm membrane's seat opens to 17.2 mm: the winding's outer face (17.0 mm from the axis,
     17.1 at its rim) would pass, the bobbin's outer flange (17.35 mm, 17.46 at its corners) does not.
     The membrane's size is pinned: its "auto" rule widens the seat to pass the flanges."""
-    from whisker import former
+    from whisker.design import former
 
     d = default_design("membrane.inscribed_radius=18")
     f = former.layout(d)

@@ -10,9 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from test_actuation_doubles import FakeClock
-from whisker import coil, driver
+from whisker import coil
+from whisker.coil import driver
 from whisker.design import DesignError, default_design
-from whisker.guard import (RatingError, ThermalGuard, check_levels, coil_current_A, full_scale_voltage,
+from whisker.drive.guard import (RatingError, ThermalGuard, check_levels, coil_current_A, full_scale_voltage,
                            max_level, volts_to_levels)
 
 NO_RESISTOR = "driver.series_resistance=0"
@@ -21,7 +22,7 @@ L298N = driver.bridge("L298N")
 
 def seven_ohm(*overrides):
     """The paper's measured 7 ohm coil: the driver arithmetic below (docs/wiring.md) is worked out for
-    it; the default coil is the bobbin's 5.87 ohm ("auto", whisker.former), whose resistor is 3.9 ohm."""
+    it; the default coil is the bobbin's 5.87 ohm ("auto", whisker.design.former), whose resistor is 3.9 ohm."""
     return default_design("coil.resistance=7.0", *overrides)
 
 
@@ -33,7 +34,7 @@ def design():
 # ---- design key --------------------------------------------------------------------------------
 
 def test_default_is_auto_and_resolves_to_3_9_ohm():
-    """The bobbin's 5.87 ohm coil (coil.resistance = "auto", whisker.former), 7.5 V, L298N typ (1.40 V +
+    """The bobbin's 5.87 ohm coil (coil.resistance = "auto", whisker.design.former), 7.5 V, L298N typ (1.40 V +
     1.15 ohm I), 3.3 V rating: Rs >= 5.872 x 6.1/3.3 - 7.022 = 3.83 ohm -> 3.9 ohm, the next E24 value
     (3.6 would give more than 3.3 V at the coil). The paper's measured 7 ohm gives 5.1 ohm."""
     design = default_design()
@@ -161,7 +162,7 @@ def test_guard_current_is_the_driver_current_at_temperature(t, rs):
 
 def _time_to_cut(design, level, dt=0.05, limit_s=120.0):
     clock = FakeClock()
-    g = ThermalGuard(design, clock=clock, policy="cut")  # default current_fn: whisker.guard.coil_current_A
+    g = ThermalGuard(design, clock=clock, policy="cut")  # default current_fn: whisker.drive.guard.coil_current_A
     req = np.zeros(design.whiskers.count)
     req[0] = level
     t = 0.0

@@ -1,4 +1,4 @@
-"""The simulator's airflow effect (whisker.sim.airflow): built only when asked, drag physics, OU statistics."""
+"""The simulator's airflow effect (whisker.sim.effects.airflow): built only when asked, drag physics, OU statistics."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from conftest import ROOT, run_cli
 from whisker.design import load_design
 from whisker.sim import load_scene, plan, simulate
-from whisker.sim.airflow import AirflowDrag, AirflowSpec, lever_m2, mean_torque_Nm
+from whisker.sim.effects.airflow import AirflowDrag, AirflowSpec, lever_m2, mean_torque_Nm
 
 SCENE = ROOT / "software/whisker/sim/scenes/airflow.toml"
 

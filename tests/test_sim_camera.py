@@ -9,8 +9,8 @@ import _sim_doubles
 from conftest import peer_data
 
 _sim_doubles.install()
-pytest.importorskip("whisker.render", reason="whisker.render (issue 6) not installed")
-pytest.importorskip("whisker.tracking", reason="whisker.tracking (issue 6) not installed")
+pytest.importorskip("whisker.vision.render", reason="whisker.vision.render (issue 6) not installed")
+pytest.importorskip("whisker.vision.tracking", reason="whisker.vision.tracking (issue 6) not installed")
 pytest.importorskip("cv2", reason="OpenCV is needed by the renderer and the tracker")
 
 from whisker.design import default_design  # noqa: E402
@@ -44,7 +44,7 @@ def test_end_to_end_paper_pipeline_loses_small_markers_roi_does_not():
     """The paper's pipeline (10x10 erosion) erodes small dots (docs/tracking.md): on the paper's
     1.2 mm dots (~12 px) it loses the markers and refuses its rest calibration, while roi keeps every
     one; on the calibrated 1.4 mm dots (~14 px) it keeps them, but its tips are several times worse."""
-    from whisker.tracking import CalibrationError
+    from whisker.vision.tracking import CalibrationError
 
     s = _scene(method="paper", geometry="paper")
     small = default_design("drive.full_scale_voltage=3.0", "coil.marker_diameter=1.2")
@@ -70,7 +70,7 @@ def test_camera_pruned_when_off_or_nothing_asked():
 def test_frames_and_video_written_by_the_cli(tmp_path):
     from click.testing import CliRunner
 
-    from whisker.commands.sim import cli
+    from whisker.commands.sensor.sim import cli
 
     f = tmp_path / "s.toml"
     f.write_text('[scene]\nname = "cam"\nduration = 0.2\ntimestep = 0.001\n[sensor]\nfacing = "up"\n'

@@ -1,4 +1,4 @@
-"""Compliant contact (whisker.sim.contact_law, materials, compliant): Hertz, its MuJoCo mapping checked
+"""Compliant contact (whisker.sim.effects.contact_law, materials, compliant): Hertz, its MuJoCo mapping checked
 on a single sphere-plane contact, the materials data, the plan and the build."""
 
 from __future__ import annotations
@@ -11,10 +11,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from whisker.sim import compliant, load_scene, plan, scene_design
-from whisker.sim.contact_law import (contact_radius_m, effective_modulus_Pa, effective_radius_m, hertz_force_N,
+from whisker.sim import load_scene, plan, scene_design
+from whisker.sim.effects import compliant
+from whisker.sim.effects.contact_law import (contact_radius_m, effective_modulus_Pa, effective_radius_m, hertz_force_N,
                                      hertz_indentation_m, hertz_stiffness_N_m, mujoco_contact, mujoco_force_N)
-from whisker.sim.kinematics import whisker_body
+from whisker.coil.kinematics import whisker_body
 from whisker.sim.materials import Material
 from whisker.sim.protocol import Placement, grasp_level, grasp_scene
 from whisker.sim.scene import SceneError, scene_with_overrides
@@ -184,7 +185,7 @@ def test_build_sets_the_pairs_with_the_compiled_inverse_masses():
 
 
 def test_a_centred_compliant_grasp_holds_the_pom_pom_with_eight_whiskers():
-    from whisker.sim import paper
+    from whisker.sim.experiments import paper
 
     s = load_scene(SCENES / "grasp.toml")
     d = scene_design(s)
@@ -199,7 +200,7 @@ def test_compliant_grasp_table_keeps_the_order_of_the_totals():
     """The committed grasp scene with compliant contact, 20 common placements per object (CI size;
     100 per cell in benchmarks/results/sim_compliant.md): the totals fall 8 > 4 > 2, and no placement
     is held by fewer whiskers and dropped by more except at most one."""
-    from whisker.sim import paper
+    from whisker.sim.experiments import paper
 
     s = load_scene(SCENES / "grasp.toml")
     s = s.with_(experiment={**s.experiment.model_dump(), "attempts": 20})

@@ -14,8 +14,8 @@ mujoco = pytest.importorskip("mujoco", reason="MuJoCo (pip install mujoco) is ne
 
 from whisker.design import default_design  # noqa: E402
 from whisker.sim import SceneError, plan, scene_from_dict, simulate  # noqa: E402
-from whisker.sim import paper  # noqa: E402
-from whisker.sim.kinematics import _point_mm, whisker_body  # noqa: E402
+from whisker.sim.experiments import paper  # noqa: E402
+from whisker.coil.kinematics import _point_mm, whisker_body  # noqa: E402
 from whisker.sim.mj import MjScene  # noqa: E402
 from conftest import ROOT  # noqa: E402
 

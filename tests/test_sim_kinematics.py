@@ -15,7 +15,7 @@ _sim_doubles.install()
 from whisker.design import default_design  # noqa: E402
 from whisker.sim import SceneError, actuation_backend, scene_from_dict, simulate  # noqa: E402
 from whisker.sim.contract import current_A  # noqa: E402
-from whisker.sim.kinematics import (energy_J, marker_positions_mm, static_equilibrium,  # noqa: E402
+from whisker.coil.kinematics import (energy_J, marker_positions_mm, static_equilibrium,  # noqa: E402
                                     step_free, tip_positions_mm, whisker_body)
 
 D = default_design()
@@ -136,14 +136,14 @@ def test_backend_follows_levels_and_refuses_bad_input():
 
 
 def test_open_backend_sim_from_actuation_module():
-    act = pytest.importorskip("whisker.hbridge", reason="whisker.hbridge (issue 7) not installed")
+    act = pytest.importorskip("whisker.drive.hbridge", reason="whisker.drive.hbridge (issue 7) not installed")
     be = act.open_backend("sim", D)
     be.set_levels(np.zeros(D.whiskers.count))
     be.off()
 
 
 def test_whisker_actuate_cli_drives_the_simulator():
-    pytest.importorskip("whisker.commands.actuate", reason="whisker actuate (issue 7) not installed")
+    pytest.importorskip("whisker.commands.sensor.actuate", reason="whisker actuate (issue 7) not installed")
     from conftest import run_cli
 
     res = run_cli("actuate", "retract", "--backend", "sim", "--duration", "0.2")
@@ -162,9 +162,9 @@ def test_heating_effect_warms_the_coil_and_weakens_the_pull():
 
 
 def test_pwm_heating_follows_the_rms_current_like_the_guard():
-    """A coil held at duty d heats with I_rms = sqrt(d) x V_fs / R (whisker.guard's definition), not
+    """A coil held at duty d heats with I_rms = sqrt(d) x V_fs / R (whisker.drive.guard's definition), not
     with the mean current d x V_fs / R that sets the force: the sim and the guard agree on the rise."""
-    from whisker.guard import full_scale_voltage
+    from whisker.drive.guard import full_scale_voltage
     from whisker.sim.contract import coil_thermal, pwm_rms_current_A
 
     d = D

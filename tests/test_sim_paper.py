@@ -15,7 +15,8 @@ pytest.importorskip("mujoco", reason="MuJoCo (pip install mujoco) is needed for 
 
 from whisker.design import default_design  # noqa: E402
 from whisker.sim import load_scene, plan  # noqa: E402
-from whisker.sim import experiments, paper  # noqa: E402
+from whisker.sim.experiments import repeat as experiments  # noqa: E402
+from whisker.sim.experiments import paper  # noqa: E402
 from whisker.sim.scene import scene_with_overrides  # noqa: E402
 
 SCENES = ROOT / "software" / "whisker" / "sim" / "scenes"
@@ -46,9 +47,9 @@ def test_classification_sample_layout_128_ints():
 
 
 def test_dataset_json_gives_the_loader_trial_ids(tmp_path):
-    """The classification run writes dataset.json: whisker.dataset.load_csv_folder then knows the trial
+    """The classification run writes dataset.json: whisker.data.dataset.load_csv_folder then knows the trial
     and pose (sensor rotation) of each row without being told."""
-    dataset = pytest.importorskip("whisker.dataset", reason="whisker.dataset (issue 9) not installed")
+    dataset = pytest.importorskip("whisker.data.dataset", reason="whisker.data.dataset (issue 9) not installed")
     from whisker.sim.runner import run_scene
 
     s = load_scene(SCENES / "classification.toml")

@@ -131,7 +131,7 @@ def test_pruned_magnetics_equals_full_when_no_drive():
     pruned = plan(base, d)
     assert not pruned.built("magnetics") and pruned.solver == "free"
     # the full model: magnetics built (a schedule of zeros still counts as no drive, so force it)
-    from whisker.sim.effects import Effect, Plan
+    from whisker.sim.effects.plan import Effect, Plan
     full = Plan(effects=tuple(Effect(e.name, True if e.name == "magnetics" else e.built, e.reason)
                               for e in pruned.effects), solver="free")
     a = simulate(base, d, pruned)
@@ -143,7 +143,7 @@ def test_pruned_magnetics_equals_full_when_no_drive():
 def test_run_folder_written(tmp_path):
     from click.testing import CliRunner
 
-    from whisker.commands.sim import cli
+    from whisker.commands.sensor.sim import cli
 
     out = tmp_path / "run"
     r = CliRunner().invoke(cli, [str(SCENES / "step_response.toml"), "--out", str(out), "-q"])
@@ -167,10 +167,10 @@ def test_object_parts_share_mass_by_volume_and_rest_on_the_table():
 
 
 def test_level_one_is_the_full_scale_coil_voltage():
-    """A level is a fraction of whisker.guard.full_scale_voltage(design) in a scene and in the backend."""
-    guard = pytest.importorskip("whisker.guard", reason="whisker.guard (issue 7) not installed")
+    """A level is a fraction of whisker.drive.guard.full_scale_voltage(design) in a scene and in the backend."""
+    guard = pytest.importorskip("whisker.drive.guard", reason="whisker.drive.guard (issue 7) not installed")
     from whisker.sim.contract import current_A
-    from whisker.sim.kinematics import static_equilibrium, whisker_body
+    from whisker.coil.kinematics import static_equilibrium, whisker_body
 
     for d in (default_design(), default_design("drive.full_scale_voltage=1.5")):
         vfs = guard.full_scale_voltage(d)

@@ -9,11 +9,11 @@ import numpy as np
 from click.testing import CliRunner
 
 from whisker.cli import main
-from whisker.recording import load_session
+from whisker.data.recording import load_session
 
 
 def _slow_render(monkeypatch, delay_s):
-    from whisker import render
+    from whisker.vision import render
 
     real = render.render_frame
 
@@ -50,7 +50,7 @@ def test_15_fps_for_6_s_is_90_frames_on_an_idle_machine(tmp_path):
 def test_guard_events_are_recorded_and_printed(tmp_path, monkeypatch):
     """A long hold at full level heats the coils past the derate start: the event is a row of
     events.csv, a line on stderr, and an interval recplot shades."""
-    from whisker.recplot import fig8_data
+    from whisker.data.recplot import fig8_data
 
     out = tmp_path / "hot"
     res = CliRunner().invoke(

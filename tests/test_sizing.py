@@ -1,4 +1,4 @@
-"""Sizes that follow the ring (whisker.sizing): the rules, their provenance, and refusals of absurd
+"""Sizes that follow the ring (whisker.design.sizing): the rules, their provenance, and refusals of absurd
 values before any CAD is built. Fast: no solids here (tests/test_cad_scaled.py builds them)."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from conftest import run_cli
-from whisker import sizing
+from whisker.design import sizing
 from whisker.design import DesignError, default_design
 
 AUTO = [r.name for r in sizing.RULES]

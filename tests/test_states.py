@@ -11,9 +11,9 @@ from hypothesis import strategies as st
 
 from conftest import run_cli
 from whisker.design import load_design
-from whisker.states import (CONTACT, DYNAMIC, REST, AdaptiveEstimator, AuthorsEstimator, StateInputError,
+from whisker.sensing.states import (CONTACT, DYNAMIC, REST, AdaptiveEstimator, AuthorsEstimator, StateInputError,
                             make_estimator, run_estimator, state_scores)
-from whisker.trackfile import TracksError, read_tracks
+from whisker.vision.trackfile import TracksError, read_tracks
 
 
 @pytest.fixture(scope="module")
@@ -100,7 +100,7 @@ def test_state_scores_on_a_hand_case():
 
 
 def test_adaptive_beats_the_authors_method_on_a_simulated_sequence(design):
-    from whisker.sim.state_sequences import labelled_sequence
+    from whisker.sim.experiments.state_sequences import labelled_sequence
 
     seq = labelled_sequence(design, fps=15, seed=7)
     assert {REST, CONTACT, DYNAMIC} <= set(np.unique(seq.truth))
@@ -114,7 +114,7 @@ def test_adaptive_beats_the_authors_method_on_a_simulated_sequence(design):
 # --- tracks files and commands ------------------------------------------------------------------
 
 def _write_track_csv(path, frames=40, n=2):
-    from whisker.commands.track import CSV_HEADER
+    from whisker.vision.trackfile import CSV_HEADER
     rows = [CSV_HEADER]
     for k in range(frames):
         for w in range(n):

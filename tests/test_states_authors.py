@@ -1,4 +1,4 @@
-"""The authors' live state method (whisker.states.AuthorsEstimator) against their own code.
+"""The authors' live state method (whisker.sensing.states.AuthorsEstimator) against their own code.
 
 The oracle is the authors' published code itself (Hu et al., MIT licence), not a copy: the test
 reads `airflowCharacterizationRealtime.py` and `airflowCharacterizationOffline.py` from a checkout
@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from conftest import peer_data
-from whisker.states import CONTACT, DYNAMIC, REST, AuthorsEstimator, AuthorsParams, run_estimator
+from whisker.sensing.states import CONTACT, DYNAMIC, REST, AuthorsEstimator, AuthorsParams, run_estimator
 
 
 def peer_code() -> Path | None:
@@ -112,7 +112,7 @@ def test_oscillation_is_dynamic_and_small_wobble_is_smoothed_away():
 
 
 def test_bad_input_is_refused():
-    from whisker.states import StateInputError
+    from whisker.sensing.states import StateInputError
     est = AuthorsEstimator(2)
     with pytest.raises(StateInputError, match="expected 2 whiskers"):
         est.update(0.0, [1.0], [1.0])

@@ -1,5 +1,5 @@
 """Every solid of the assembly against every other over the whole swing, the wound coil and its
-leads included (whisker.cad.swing, whisker.leads)."""
+leads included (whisker.cad.swing, whisker.design.leads)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from whisker import former, leads
+from whisker.design import former
+from whisker.design import leads
 from whisker.cad import mount, reference, swing
 from whisker.design import default_design
 
@@ -77,7 +78,7 @@ def test_lead_solid_is_the_swept_polyline(default):
 def test_off_paper_rings_still_build_and_go_together_with_the_wound_coil(count, radius):
     """6 @ 10 mm and 12 @ 12 mm: every solid check (the swing included) and mesh check passes, and
     every assembly step reaches its place; the crowding bound (the tab's inner face) leaves room."""
-    from whisker import sizing
+    from whisker.design import sizing
     from whisker.cad import sequence
     from whisker.cad.build import build_solids, evaluate
 

@@ -1,4 +1,4 @@
-"""whisker.thermal: the lumped coil model's physics, limits, duty cycle and hard inputs."""
+"""whisker.coil.thermal: the lumped coil model's physics, limits, duty cycle and hard inputs."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from whisker import thermal as T
+from whisker.coil import thermal as T
 from whisker.design import default_design
 
 D = default_design()

@@ -1,13 +1,14 @@
-"""whisker.tracking on synthetic frames with known subpixel marker positions, plus the hard cases."""
+"""whisker.vision.tracking on synthetic frames with known subpixel marker positions, plus the hard cases."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from whisker import geometry, render
+from whisker.vision import geometry
+from whisker.vision import render
 from whisker.design import default_design
-from whisker.tracking import METHODS, CalibrationError, Tracker, assign, load_calibration, load_mask
+from whisker.vision.tracking import METHODS, CalibrationError, Tracker, assign, load_calibration, load_mask
 
 D = default_design()
 BIG = default_design("coil.marker_diameter=1.9")  # ~20 px red discs, the size the paper's 10x10 erosion needs

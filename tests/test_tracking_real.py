@@ -7,7 +7,7 @@ import pytest
 
 from conftest import peer_data, run_cli
 from whisker.design import default_design
-from whisker.tracking import Tracker
+from whisker.vision.tracking import Tracker
 
 DATA = peer_data()
 pytestmark = pytest.mark.skipif(

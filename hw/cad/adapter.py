@@ -29,10 +29,11 @@ import math
 import cadquery as cq
 import numpy as np
 
-from whisker import fasteners, sizing
+from whisker.design import fasteners
+from whisker.design import sizing
 from whisker.design import Design
 
-from whisker import flanges
+from whisker.design import flanges
 
 from . import extras
 from .shapes import cut_all, cylinder, polar_xy

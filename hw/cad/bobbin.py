@@ -1,9 +1,9 @@
 """Coil former (bobbin), printed on a resin (MSLA) printer: 0.05 mm pixels and layers, walls down to
 ``bobbin.min_wall`` (0.3 mm). An FDM printer with a 0.4 mm nozzle cannot print its 1 mm core.
 
-The layout (whisker 0, sensor coordinates, mm) is whisker.former's: the *tab* centred on the rod,
+The layout (whisker 0, sensor coordinates, mm) is whisker.design.former's: the *tab* centred on the rod,
 the rod in a blind socket in it, outside the winding, and two lead holes beside the socket through
-which the leads run down to the tab's lower face, glued there (the strain relief; whisker.leads);
+which the leads run down to the tab's lower face, glued there (the strain relief; whisker.design.leads);
 the tab's lower face is the marker face the camera sees (the red dot goes there); the *core* with a
 bore on the coil axis (for a 0.3 mm pin, or just to save resin); the *outer flange*. The winding
 fills the window between tab and flange up to ``bobbin.rim_margin`` under the rim; the turns that
@@ -15,14 +15,14 @@ from __future__ import annotations
 import cadquery as cq
 
 from whisker import coil as coil_calc
-from whisker import former
+from whisker.design import former
 from whisker.design import Design
 
 from .shapes import cut_all, cylinder, radial_cylinder
 
 
 def layout(d: Design) -> dict:
-    """The former's layout (whisker.former.layout) as a dict, with the [bobbin] settings."""
+    """The former's layout (whisker.design.former.layout) as a dict, with the [bobbin] settings."""
     f = former.layout(d)
     return dict(settings=d.bobbin, tab=f.tab, core=f.core, flange=f.flange, tab_top=f.tab_top,
                 tab_bottom=f.tab_bottom, socket_diameter=f.socket_diameter, socket_bottom=f.socket_bottom,

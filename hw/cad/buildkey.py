@@ -6,7 +6,7 @@ import hashlib
 import json
 from pathlib import Path
 
-from whisker import design as _design_module
+import whisker
 from whisker.design import Design
 from whisker.resources import hw_dir
 
@@ -14,7 +14,7 @@ from whisker.resources import hw_dir
 FORMATS = ("stl", "step")
 
 # software/whisker in a clone, site-packages/whisker from a wheel.
-_PACKAGE = Path(_design_module.__file__).resolve().parent
+_PACKAGE = Path(whisker.__file__).resolve().parent
 
 
 def source_digest() -> str:
@@ -23,7 +23,7 @@ def source_digest() -> str:
     h = hashlib.sha256()
     hw = hw_dir()
     sources = (sorted(Path(__file__).resolve().parent.glob("*.py"))
-               + [_PACKAGE / n for n in ("design.py", "files.py", "sizing.py", "fasteners.py", "camera_boards.py")]
+               + sorted((_PACKAGE / "design").glob("*.py")) + [_PACKAGE / "files.py"]
                # the data the parts are built from (standards and datasheets, board drawings, the sequence)
                + [hw / n for n in ("fasteners.csv", "camera_boards.toml", "flanges.csv", "assembly_sequence.toml")])
     for p in sources:

@@ -8,7 +8,6 @@ that drive it, so a refused design gets one line that says which knob to turn.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
 from typing import Iterable
 
 import cadquery as cq
@@ -18,10 +17,11 @@ import shapely
 import trimesh
 from shapely.geometry import Point, Polygon
 
-from whisker import sizing
+from whisker.design import sizing
 from whisker.design import Design
 
 from . import reference, ring
+from .verdict import VOLUME_EPS, Check, make_check, measured_check, to_mesh  # noqa: F401  (re-exported for the checks' users)
 
 
 def resolution(d: Design, radius: float) -> float:
@@ -35,59 +35,11 @@ def resolution(d: Design, radius: float) -> float:
     e = d.export
     return max(e.linear_tolerance, radius * (1.0 - math.cos(e.angular_tolerance / 2))) + 1e-6
 
-# Intersection volumes below this are round-off, not contact (mm^3).
-VOLUME_EPS = 1e-4
 # The membrane's rim needs at least this much flange to be glued on (mm).
 MIN_GLUE_LEDGE = 0.5
 
 
-@dataclass
-class Check:
-    name: str
-    part: str
-    value: float
-    limit: str
-    unit: str
-    ok: bool
-    parameters: tuple[str, ...] = ()
-    detail: str = ""
-    # "conflict": a physical conflict of the design (parts collide, a wall is too thin, a part is too
-    # big); "measurement": the built part is not what the design says (a fault of the CAD, not the design).
-    kind: str = "conflict"
-
-    def line(self) -> str:
-        """One line for a refusal: what, measured value, limit, which parameters drive it."""
-        val = f"{self.value:.4g}" if isinstance(self.value, float) else str(self.value)
-        params = f" [parameters: {', '.join(self.parameters)}]" if self.parameters else ""
-        det = f": {self.detail}" if self.detail else ""
-        return f"{self.part}: {self.name} = {val} {self.unit}, needs {self.limit}{det}{params}".replace("  ", " ")
-
-    def to_dict(self) -> dict:
-        out = asdict(self)
-        out["parameters"] = list(self.parameters)
-        if isinstance(self.value, float) and not math.isfinite(self.value):
-            out["value"] = None  # JSON has no NaN; the check has failed anyway
-        return out
-
-
-def _check(name, part, value, ok, limit, unit="", parameters=(), detail="", kind="conflict") -> Check:
-    if isinstance(value, (float, np.floating)):
-        value = float(value)
-        ok = bool(ok) and math.isfinite(value)
-    return Check(name, part, value, limit, unit, bool(ok), tuple(parameters), detail, kind)
-
-
-def _measured(name, part, value, ok, limit, unit="", parameters=(), detail="") -> Check:
-    """A check that the built part is what the design says (not a conflict of the design)."""
-    return _check(name, part, value, ok, limit, unit, parameters, detail, kind="measurement")
-
-
 # ---- mesh helpers ---------------------------------------------------------------------------
-
-def to_mesh(shape: cq.Shape, tolerance: float, angular: float) -> trimesh.Trimesh:
-    verts, tris = shape.tessellate(tolerance, angular)
-    return trimesh.Trimesh(np.array([v.toTuple() for v in verts]), np.array(tris), process=True)
-
 
 def section(mesh: trimesh.Trimesh, z: float) -> list[Polygon]:
     """Polygons (with holes) of the mesh cut by the plane at height z, in sensor xy (mm)."""
@@ -126,16 +78,16 @@ def ring_of_holes(part: str, what: str, circles, d: Design, diameter: float, dia
     tol = 2 * resolution(d, diameter / 2)  # both sides of a hole may be off by one resolution
     match = [c for c in circles if abs(c[2] - diameter) < max(3 * tol, 0.1 * diameter)]
     params = ("whiskers.count", "whiskers.ring_radius", *diam_params)
-    out = [_check(f"{what} found", part, len(match), len(match) == n, f"== {n}", "", params,
+    out = [make_check(f"{what} found", part, len(match), len(match) == n, f"== {n}", "", params,
                   "holes merged or missing" if len(match) != n else "")]
     if match:
         rad_err = max(abs(c[0] - r) for c in match)
-        out.append(_measured(f"{what} radius error", part, rad_err, rad_err <= tol, f"<= {tol:.3g}", "mm", params))
+        out.append(measured_check(f"{what} radius error", part, rad_err, rad_err <= tol, f"<= {tol:.3g}", "mm", params))
         ang_err = _angle_error([c[1] for c in match], d.whisker_angles_deg)
         ang_tol = math.degrees(tol / r) + 1e-3
-        out.append(_measured(f"{what} angle error", part, ang_err, ang_err <= ang_tol, f"<= {ang_tol:.3g}", "deg", params))
+        out.append(measured_check(f"{what} angle error", part, ang_err, ang_err <= ang_tol, f"<= {ang_tol:.3g}", "deg", params))
         dia_err = max(abs(c[2] - diameter) for c in match)
-        out.append(_measured(f"{what} diameter error", part, dia_err, dia_err <= tol, f"<= {tol:.3g}", "mm", diam_params))
+        out.append(measured_check(f"{what} diameter error", part, dia_err, dia_err <= tol, f"<= {tol:.3g}", "mm", diam_params))
     return out
 
 
@@ -143,19 +95,19 @@ def ring_of_holes(part: str, what: str, circles, d: Design, diameter: float, dia
 
 def mesh_checks(name: str, mesh: trimesh.Trimesh, cad_volume: float, printable: bool, d: Design,
                 print_extent: tuple[float, float, float] | None) -> list[Check]:
-    out = [_measured("watertight", name, bool(mesh.is_watertight), mesh.is_watertight, "true")]
+    out = [measured_check("watertight", name, bool(mesh.is_watertight), mesh.is_watertight, "true")]
     mf = manifold3d.Manifold(manifold3d.Mesh(vert_properties=np.asarray(mesh.vertices, dtype=np.float32),
                                              tri_verts=np.asarray(mesh.faces, dtype=np.uint32)))
     status = mf.status()
-    out.append(_measured("manifold", name, status.name, status == manifold3d.Error.NoError, "NoError"))
+    out.append(measured_check("manifold", name, status.name, status == manifold3d.Error.NoError, "NoError"))
     rel = abs(mesh.volume - cad_volume) / cad_volume if cad_volume > 0 else math.inf
-    out.append(_measured("mesh vs CAD volume", name, rel * 100, rel <= 0.005, "<= 0.5", "%",
+    out.append(measured_check("mesh vs CAD volume", name, rel * 100, rel <= 0.005, "<= 0.5", "%",
                       ("export.linear_tolerance", "export.angular_tolerance")))
     if printable and print_extent is not None:
         x, y, h = print_extent
         p = d.print
         fits = h <= p.max_height and ((x <= p.bed_x and y <= p.bed_y) or (y <= p.bed_x and x <= p.bed_y))
-        out.append(_check("fits printer", name, max(x, y, h), fits,
+        out.append(make_check("fits printer", name, max(x, y, h), fits,
                           f"<= bed {p.bed_x:g} x {p.bed_y:g} x {p.max_height:g}", "mm",
                           ("print.profile",),
                           f"part is {x:.1f} x {y:.1f} x {h:.1f} mm"))
@@ -170,17 +122,17 @@ def membrane_checks(mesh: trimesh.Trimesh, d: Design) -> list[Check]:
     out = ring_of_holes("membrane", "rod holes", describe_circles(holes(polys)), d, d.whiskers.rod_diameter,
                         ("whiskers.rod_diameter",))
     if len(polys) != 1:
-        return out + [_check("one piece", "membrane", len(polys), False, "== 1", "", ("membrane.inscribed_radius",))]
+        return out + [make_check("one piece", "membrane", len(polys), False, "== 1", "", ("membrane.inscribed_radius",))]
     outline = polys[0].exterior
     inscribed = Point(0, 0).distance(outline)
     tol = resolution(d, m.inscribed_radius)
-    out.append(_measured("inscribed radius error", "membrane", abs(inscribed - m.inscribed_radius),
+    out.append(measured_check("inscribed radius error", "membrane", abs(inscribed - m.inscribed_radius),
                          abs(inscribed - m.inscribed_radius) <= tol, f"<= {tol:.3g}", "mm",
                          ("membrane.inscribed_radius",), f"measured {inscribed:.3f} mm"))
     sides = len(Polygon(outline).simplify(0.01).exterior.coords) - 1
-    out.append(_measured("polygon sides", "membrane", sides, sides == m.sides, f"== {m.sides}", "", ("membrane.sides",)))
+    out.append(measured_check("polygon sides", "membrane", sides, sides == m.sides, f"== {m.sides}", "", ("membrane.sides",)))
     thick = float(mesh.bounds[1, 2] - mesh.bounds[0, 2])
-    out.append(_measured("thickness error", "membrane", abs(thick - m.thickness), abs(thick - m.thickness) <= 1e-3,
+    out.append(measured_check("thickness error", "membrane", abs(thick - m.thickness), abs(thick - m.thickness) <= 1e-3,
                       "<= 0.001", "mm", ("membrane.thickness",)))
     return out
 
@@ -193,7 +145,7 @@ def mold_checks(base: trimesh.Trimesh, lid: trimesh.Trimesh, d: Design) -> list[
     cav = holes(section(base, d.membrane.thickness / 2))
     inscribed = Point(0, 0).distance(cav[0].exterior) if len(cav) == 1 else math.nan
     tol = resolution(d, d.membrane.inscribed_radius)
-    out.append(_measured("cavity inscribed radius error", "mold_base", abs(inscribed - d.membrane.inscribed_radius),
+    out.append(measured_check("cavity inscribed radius error", "mold_base", abs(inscribed - d.membrane.inscribed_radius),
                          abs(inscribed - d.membrane.inscribed_radius) <= tol, f"<= {tol:.3g}", "mm",
                          ("membrane.inscribed_radius",)))
     # Floor under the rod sockets: ray down each socket to its bottom, then to the base's underside.
@@ -203,7 +155,7 @@ def mold_checks(base: trimesh.Trimesh, lid: trimesh.Trimesh, d: Design) -> list[
         hits = np.sort(_ray_hits(base, (x, y, 100.0), (0, 0, -1))[:, 2])[::-1]
         walls.append(hits[0] - hits[-1] if len(hits) >= 2 else math.nan)
     w = float(np.min(walls))
-    out.append(_check("floor under rod sockets", "mold_base", w, w >= d.print.min_wall, f">= {d.print.min_wall:g}",
+    out.append(make_check("floor under rod sockets", "mold_base", w, w >= d.print.min_wall, f">= {d.print.min_wall:g}",
                       "mm", ("mold.floor", "whiskers.rod_length", "whiskers.protrusion", "print.min_wall")))
     out += ring_of_holes("mold_lid", "rod guides", describe_circles(holes(section(lid, d.membrane.thickness + d.mold.lid_thickness / 2))),
                          d, rod_hole, params)
@@ -221,7 +173,7 @@ def ring_checks(mesh: trimesh.Trimesh, d: Design) -> list[Check]:
     opening = centre[0][2] if centre else 0.0
     # The opening's equivalent diameter reads small by up to two resolutions of its radius.
     need = d.mold.pour_diameter - 2 * resolution(d, d.mold.pour_diameter / 2)
-    out.append(_check("pour opening through ring", "whisker_ring", opening, opening >= need,
+    out.append(make_check("pour opening through ring", "whisker_ring", opening, opening >= need,
                       f">= mold.pour_diameter {d.mold.pour_diameter:g}", "mm",
                       ("whiskers.ring_radius", "ring.margin", "mold.pour_diameter")))
     return out
@@ -246,23 +198,23 @@ def mount_checks(mesh: trimesh.Trimesh, membrane_mesh: trimesh.Trimesh, d: Desig
                if cav else Polygon())
     pockets = [g for g in getattr(notches, "geoms", [notches]) if not g.is_empty and g.area > 0.05]
     found = describe_circles(pockets)
-    out.append(_check("magnet pockets found", "mount", len(pockets), len(pockets) == n, f"== {n}", "", pocket_params,
+    out.append(make_check("magnet pockets found", "mount", len(pockets), len(pockets) == n, f"== {n}", "", pocket_params,
                       "pockets merged or missing" if len(pockets) != n else ""))
     if pockets:
         ang = _angle_error([f[1] for f in found], d.whisker_angles_deg)
-        out.append(_measured("magnet pocket angle error", "mount", ang, ang <= 0.5, "<= 0.5", "deg", pocket_params))
+        out.append(measured_check("magnet pocket angle error", "mount", ang, ang <= 0.5, "<= 0.5", "deg", pocket_params))
         # Measured magnet face radius = where the pockets start = cavity wall (its nearest mesh point).
         face_err, tol = abs(r_cav - d.cavity_radius), resolution(d, d.cavity_radius)
-        out.append(_measured("magnet face radius error", "mount", face_err, face_err <= tol, f"<= {tol:.3g}", "mm",
+        out.append(measured_check("magnet face radius error", "mount", face_err, face_err <= tol, f"<= {tol:.3g}", "mm",
                              ("whiskers.ring_radius", "coil.length", "actuation.gap")))
         gaps = [a.distance(b) for i, a in enumerate(pockets) for b in pockets[i + 1:]]
         between = min(gaps) if gaps else math.inf
         if len(pockets) > 1:
-            out.append(_check("wall between magnet pockets", "mount", between, between >= minw, f">= {minw:g}", "mm",
+            out.append(make_check("wall between magnet pockets", "mount", between, between >= minw, f">= {minw:g}", "mm",
                               pocket_params + ("print.min_wall",)))
         outer = polys[0].exterior if polys else None
         to_rim = min(p.distance(outer) for p in pockets) if outer is not None else math.nan
-        out.append(_check("wall from magnet pockets to rim", "mount", to_rim, to_rim >= minw, f">= {minw:g}", "mm",
+        out.append(make_check("wall from magnet pockets to rim", "mount", to_rim, to_rim >= minw, f">= {minw:g}", "mm",
                           ("mount.outer_radius", "magnet.height", "mount.glue_gap", "print.min_wall")))
         # Wall above each pocket up to the membrane seat: a ray up through the pocket's centroid.
         above = []
@@ -271,7 +223,7 @@ def mount_checks(mesh: trimesh.Trimesh, membrane_mesh: trimesh.Trimesh, d: Desig
             zs = np.sort(hits[:, 2])
             above.append(zs[1] - zs[0] if len(zs) >= 2 else math.nan)
         wa = float(np.min(above))
-        out.append(_check("wall above magnet pockets", "mount", wa, wa >= minw, f">= {minw:g}", "mm",
+        out.append(make_check("wall above magnet pockets", "mount", wa, wa >= minw, f">= {minw:g}", "mm",
                           ("coil.drop", "coil.outer_diameter", "magnet.diameter", "print.min_wall")))
     # Membrane ledge: how far the membrane overlaps the mount just under its seat.
     under = holes(section(mesh, -0.05))
@@ -279,14 +231,14 @@ def mount_checks(mesh: trimesh.Trimesh, membrane_mesh: trimesh.Trimesh, d: Desig
     mem = section(membrane_mesh, d.membrane.thickness / 2)
     mem_in = Point(0, 0).distance(mem[0].exterior) if mem else math.nan
     ledge = mem_in - cav_top
-    out.append(_check("membrane ledge", "mount", ledge, ledge >= MIN_GLUE_LEDGE, f">= {MIN_GLUE_LEDGE:g}",
+    out.append(make_check("membrane ledge", "mount", ledge, ledge >= MIN_GLUE_LEDGE, f">= {MIN_GLUE_LEDGE:g}",
                       "mm", ("membrane.inscribed_radius", "mount.seat_ledge")))
     # Robot mounting holes in the bottom face.
     bottom = sizing.mount_levels(d)["bottom"]
     mh = describe_circles(holes(section(mesh, bottom + 0.5)))
     want = d.mount.mounting_hole_count
     mh_ok = [c for c in mh if abs(c[2] - d.mounting_hole_diameter) < 0.2]
-    out.append(_check("mounting holes found", "mount", len(mh_ok), len(mh_ok) == want, f"== {want}", "",
+    out.append(make_check("mounting holes found", "mount", len(mh_ok), len(mh_ok) == want, f"== {want}", "",
                       ("mount.mounting_hole_count", "mount.mounting_bolt_radius", "mount.ribbon_width"),
                       "a hole runs into the camera pocket or cable slot" if len(mh_ok) != want else ""))
     # Camera sight lines: from the optical centre to every marker, at rest and at full deflection.
@@ -315,7 +267,7 @@ def sight_check(mesh: trimesh.Trimesh, d: Design) -> Check:
         hits = _ray_hits(mesh, cam, v / dist)
         if len(hits) and np.min(np.linalg.norm(hits - cam, axis=1)) < dist - 1e-6:
             blocked += 1
-    return _check("markers hidden from camera", "mount", blocked, blocked == 0, "== 0", "",
+    return make_check("markers hidden from camera", "mount", blocked, blocked == 0, "== 0", "",
                   ("camera.distance", "camera.lens_block", "whiskers.ring_radius"))
 
 
@@ -329,7 +281,7 @@ def camera_view_check(d: Design) -> Check:
     reach = cam.focal_length_px * (np.hypot(pts[:, 0], pts[:, 1]) + d.coil.marker_diameter / 2) / depth
     worst = float(np.max(reach)) if np.all(depth > 0) else math.inf
     limit = min(cam.width_px, cam.height_px) / 2 - cam.edge_margin_px
-    return _check("marker reach from image centre", "camera", worst, worst <= limit, f"<= {limit:g}", "px",
+    return make_check("marker reach from image centre", "camera", worst, worst <= limit, f"<= {limit:g}", "px",
                   ("camera.distance", "camera.focal_length_px", "whiskers.ring_radius", "whiskers.max_deflection_deg"),
                   "a marker leaves the camera's view" if worst > limit else "")
 
@@ -353,7 +305,7 @@ def solid_checks(d: Design, mount: cq.Shape, membrane: cq.Shape) -> list[Check]:
     theta = d.whiskers.max_deflection_deg
     magnets = [reference.magnet(d, a) for a in angles]
     mag_in_mount = max(_common_volume(m, mount) for m in magnets)
-    out.append(_check("magnet overlaps mount", "mount", mag_in_mount, mag_in_mount < VOLUME_EPS, "0", "mm^3",
+    out.append(make_check("magnet overlaps mount", "mount", mag_in_mount, mag_in_mount < VOLUME_EPS, "0", "mm^3",
                       ("magnet.diameter", "magnet.height", "print.clearance")))
     # Every coil against its neighbour, the mount and the magnets, all tilted in, at rest and out.
     worst, worst_overlap, where = math.inf, 0.0, ""
@@ -371,13 +323,13 @@ def solid_checks(d: Design, mount: cq.Shape, membrane: cq.Shape) -> list[Check]:
                 where = (f"{what} overlap by {overlap:.3g} mm^3" if overlap else f"{what}") + f" at tilt {tilt:+g} deg"
     # A coil swinging past a printed surface needs at least the print clearance.
     need = max(d.print.clearance, 0.05)
-    out.append(_check("coil clearance over full deflection", "assembly", worst, worst >= need,
+    out.append(make_check("coil clearance over full deflection", "assembly", worst, worst >= need,
                       f">= {need:g}", "mm", ("whiskers.count", "whiskers.ring_radius", "whiskers.max_deflection_deg",
                                        "coil.outer_diameter", "coil.length", "actuation.gap", "mount.flange_thickness"),
                       where))
     from .swing import swing_check  # every solid, rods, windings and leads included, over the swing
     out += swing_check(d, mount, membrane)
     mem_overlap = _common_volume(membrane, mount)
-    out.append(_check("membrane overlaps its seat", "assembly", mem_overlap, mem_overlap < VOLUME_EPS, "0", "mm^3",
+    out.append(make_check("membrane overlaps its seat", "assembly", mem_overlap, mem_overlap < VOLUME_EPS, "0", "mm^3",
                       ("membrane.inscribed_radius", "print.clearance", "mount.outer_radius")))
     return out

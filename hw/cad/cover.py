@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import cadquery as cq
 
-from whisker import fasteners, sizing
+from whisker.design import fasteners
+from whisker.design import sizing
 from whisker.design import Design
 
 from . import extras

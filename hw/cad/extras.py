@@ -1,6 +1,6 @@
 """The design sections of the accessory parts (adapter, cover, winding jig), with per-call overrides.
 
-The robot flange presets are in whisker.flanges.
+The robot flange presets are in whisker.design.flanges.
 
 Units: mm.
 """

@@ -23,7 +23,8 @@ from shapely.geometry import Point
 from whisker.design import Design
 
 from . import ring
-from .checks import Check, _check, _measured, holes, section
+from .checks import holes, section
+from .verdict import Check, make_check, measured_check
 from .shapes import polar_xy
 
 # Faces closer than this to the cavity's floor or top belong to them, not to a side wall (mm).
@@ -72,22 +73,22 @@ def release_checks(base: trimesh.Trimesh, ring_mesh: trimesh.Trimesh, d: Design)
     m, t = d.mold, d.membrane.thickness
     drafts = side_wall_drafts(base, d)
     worst = float(drafts.min()) if len(drafts) else math.nan
-    out = [_check("cavity side-wall draft (release upwards)", "mold_base", worst, worst >= m.draft_deg - ANGLE_TOL,
+    out = [make_check("cavity side-wall draft (release upwards)", "mold_base", worst, worst >= m.draft_deg - ANGLE_TOL,
                   f">= mold.draft_deg {m.draft_deg:g}", "deg", ("mold.draft_deg",),
                   f"least of {len(drafts)} side-wall faces; the membrane lifts out along the rods")]
     grow = _inscribed(base, t - EDGE) - d.membrane.inscribed_radius
-    out.append(_check("cast membrane's top beyond the nominal polygon", "mold_base", grow,
+    out.append(make_check("cast membrane's top beyond the nominal polygon", "mold_base", grow,
                       grow <= d.print.clearance + HEIGHT_TOL, f"<= print.clearance {d.print.clearance:g}", "mm",
                       ("mold.draft_deg", "membrane.thickness", "print.clearance"),
                       "the mount's seat pocket is print.clearance wider than the nominal polygon"))
     found = stops_and_slack(base, ring_mesh, d)
     stop_err = max(abs(s + d.rod_below_membrane) for s, _ in found)
-    out.append(_measured("rod stop height error", "mold_base", stop_err, stop_err <= HEIGHT_TOL, f"<= {HEIGHT_TOL:g}",
+    out.append(measured_check("rod stop height error", "mold_base", stop_err, stop_err <= HEIGHT_TOL, f"<= {HEIGHT_TOL:g}",
                          "mm", ("whiskers.rod_length", "whiskers.protrusion", "membrane.thickness"),
                          f"socket floors at z = {-d.rod_below_membrane:g} mm: a rod's lower end"))
     slack = min(s for _, s in found)
     off = max(abs(s - m.rod_slack) for _, s in found)
-    out.append(_check("rod axial slack (stop in the base to the ring's socket end)", "whisker_ring", slack,
+    out.append(make_check("rod axial slack (stop in the base to the ring's socket end)", "whisker_ring", slack,
                       slack >= -HEIGHT_TOL and off <= HEIGHT_TOL, f"== mold.rod_slack {m.rod_slack:g}", "mm",
                       ("mold.rod_slack", "ring.hole_depth"), f"{len(found)} rods; a rod up to {m.rod_slack:g} mm "
                       "long still stands on its stop"))

@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import cadquery as cq
 
-from whisker import camera_boards, fasteners, sizing
+from whisker.design import camera_boards
+from whisker.design import fasteners
+from whisker.design import sizing
 from whisker.design import Design
 
 from . import camera_seat

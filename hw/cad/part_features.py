@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import cadquery as cq
 
-from whisker import sizing
+from whisker.design import sizing
 from whisker.design import Design
 
 from . import mold, mount, ring

@@ -40,7 +40,7 @@ import trimesh
 
 from whisker.design import Design
 from whisker.files import atomic_write_json, atomic_write_text
-from whisker.printer import PrinterProfile, load_profile
+from whisker.design.printer import PrinterProfile, load_profile
 
 INSTALL_HINT = ("install it with: sudo apt-get install prusa-slicer admesh (Debian/Ubuntu); "
                 "CI installs both from .ci/apt-packages")

@@ -10,6 +10,7 @@ from __future__ import annotations
 import cadquery as cq
 
 from whisker.design import Design
+from whisker.design import sizing
 
 from .shapes import ORIGIN, Z, cut_all, cylinder, polar_xy, polygon_prism, radial_cylinder
 
@@ -54,7 +55,7 @@ def winding(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shap
 
 def coil(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
     """The coil as it is made, one rigid piece: the bobbin and its winding, with the rod in the
-    bobbin's tab outside the winding (whisker.former)."""
+    bobbin's tab outside the winding (whisker.design.former)."""
     from . import bobbin as former
     body = former.bobbin(d).fuse(former.winding_envelope(d)).clean()
     return _tilt(body, d, angle_deg, tilt_deg)
@@ -63,7 +64,7 @@ def coil(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
 def coil_envelope(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
     """The coil's outside - bobbin tab and flanged winding, without the socket and lead holes - for
     the clearance checks (the same outside as :func:`coil`, a simpler solid to measure distances to)."""
-    from whisker.former import layout
+    from whisker.design.former import layout
 
     f = layout(d)
     r = f.half_width
@@ -76,3 +77,13 @@ def magnet(d: Design, angle_deg: float = 0.0) -> cq.Shape:
     """NdFeB disc in the mount wall, its face `actuation.gap` outside the coil's outer face."""
     r = d.cavity_radius
     return radial_cylinder(r, r + d.magnet.height, d.magnet.diameter, d.coil_axis_z, angle_deg)
+
+
+def led_strip(d: Design) -> cq.Shape:
+    """The LED strip in its channel below the magnets (a band at the channel's radius; bought)."""
+    z, m = sizing.mount_levels(d), d.mount
+    ro = sizing.led_outer_radius(d) - d.print.clearance
+    ri = ro - m.led_strip_thickness
+    zc, w = (z["led_top"] + z["led_bottom"]) / 2, m.led_strip_width
+    band = cq.Solid.makeCylinder(ro, w, cq.Vector(0, 0, zc - w / 2)).cut(cq.Solid.makeCylinder(ri, w, cq.Vector(0, 0, zc - w / 2)))
+    return band

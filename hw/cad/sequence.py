@@ -6,7 +6,7 @@ from a start clear of everything to their final places along a path of straight 
 swept volume of a piece over a segment is the convex hull of the piece at both ends (manifold3d):
 exact for convex pieces (discs, rods, boards) and a safe over-estimate for the others. A step
 passes when no swept volume overlaps any part placed by an earlier step by more than
-``checks.VOLUME_EPS``; otherwise it is refused with one line naming the step, the piece and what it
+``verdict.VOLUME_EPS``; otherwise it is refused with one line naming the step, the piece and what it
 runs into. Flexible parts (the LED strip) are checked only where they end up. Units: mm.
 """
 
@@ -21,13 +21,13 @@ import cadquery as cq
 import manifold3d
 import numpy as np
 
-from whisker import sizing
+from whisker.design import sizing
 from whisker.design import Design, DesignError
 from whisker.files import read_toml
 from whisker.resources import hw_dir
 
 from . import reference
-from .checks import VOLUME_EPS, Check, _check, to_mesh
+from .verdict import VOLUME_EPS, Check, make_check, to_mesh
 
 SEQUENCE = hw_dir() / "assembly_sequence.toml"
 VARIANTS = ("robot", "bench")
@@ -58,19 +58,10 @@ def load_steps(path: str | Path = SEQUENCE) -> list[Step]:
 # ---- the pieces, in their final places ---------------------------------------------------------
 
 def _camera(d: Design) -> list[tuple[str, cq.Shape]]:
-    from whisker.camera_boards import profile
+    from whisker.design.camera_boards import profile
 
     from .camera_seat import board
     return list(board(d, profile(d.camera.board), sizing.mount_levels(d)["board_face"]).items())
-
-
-def _led_strip(d: Design) -> list[tuple[str, cq.Shape]]:
-    z, m = sizing.mount_levels(d), d.mount
-    ro = sizing.led_outer_radius(d) - d.print.clearance
-    ri = ro - m.led_strip_thickness
-    zc, w = (z["led_top"] + z["led_bottom"]) / 2, m.led_strip_width
-    band = cq.Solid.makeCylinder(ro, w, cq.Vector(0, 0, zc - w / 2)).cut(cq.Solid.makeCylinder(ri, w, cq.Vector(0, 0, zc - w / 2)))
-    return [("LED strip", band)]
 
 
 def _adapter(d):
@@ -90,7 +81,7 @@ PIECES: dict[str, Callable[[Design], list[tuple[str, cq.Shape]]]] = {
     # the coil as it is made: bobbin (tab, flanges) and winding, one rigid piece on its rod
     "coils": lambda d: [(f"coil {i}", reference.coil(d, a)) for i, a in enumerate(d.whisker_angles_deg)],
     "camera": _camera,
-    "led_strip": _led_strip,
+    "led_strip": lambda d: [("LED strip", reference.led_strip(d))],
     "adapter": _adapter,
     "cover": _cover,
 }
@@ -186,7 +177,7 @@ def check_sequence(d: Design, mount: cq.Shape, variant: str = "robot", steps: li
         except DesignError as err:
             worst, what = math.inf, str(err)
         params = tuple(dict.fromkeys(p for part in step.parts for p in PARAMETERS.get(part, ())))
-        out.append(_check(f"assembly step {k + 1}: {step.name}", "assembly", worst, worst <= VOLUME_EPS, "0",
+        out.append(make_check(f"assembly step {k + 1}: {step.name}", "assembly", worst, worst <= VOLUME_EPS, "0",
                           "mm^3", params, what))
         placed += pieces
         done.add(step.name)

@@ -3,7 +3,7 @@
 Each point is the design with `whiskers.count` and `whiskers.ring_radius` changed (every size set to
 "auto" follows the ring); it is either feasible or refused with the physical conflict behind it.
 Points run in parallel with joblib. Results: a CSV table, a Markdown summary and a plot of the
-feasible region with the small-ring bound (:func:`whisker.sizing.crowding_bound_radius`) drawn over it.
+feasible region with the small-ring bound (:func:`whisker.design.sizing.crowding_bound_radius`) drawn over it.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ FIELDS = ("count", "ring_radius_mm", "feasible", "conflict", "kind", "reason", "
 def evaluate_point(design_file: str | None, overrides: tuple[str, ...], count: int, radius: float) -> dict:
     """One (count, radius) cell: feasible, or the first failed check (its kind says whether it is a
     physical conflict of the design or a fault of the CAD), with the crowding bound for this count."""
-    from whisker.sizing import crowding_bound_radius
+    from whisker.design.sizing import crowding_bound_radius
 
     t0 = time.perf_counter()
     row = {"count": count, "ring_radius_mm": radius, "feasible": False, "conflict": "", "kind": "", "reason": "",

@@ -1,10 +1,10 @@
 """Every solid of the assembly against every other, over the whole swing; the coils' leads.
 
 The moving pieces of each whisker - rod, bobbin, winding (rigid together) and its two leads (their
-free part re-drawn taut at each tilt, whisker.leads) - are placed at ``leads.SWING_SAMPLES`` tilts
+free part re-drawn taut at each tilt, whisker.design.leads) - are placed at ``leads.SWING_SAMPLES`` tilts
 from full extension to full retraction, every whisker at the same tilt, and intersected (manifold3d
 mesh booleans) with the mount, the magnets, the LED strip, the membrane, and the other whiskers'
-pieces. A pair counts when it shares more than ``checks.VOLUME_EPS``.
+pieces. A pair counts when it shares more than ``verdict.VOLUME_EPS``.
 
 Left out, and why: the rods above the membrane's upper face (there they can only meet each other,
 at the tips, when every whisker retracts past ``leads.tips_meet_deg``: the grasp); a rod and the membrane (the rod is glued through it; the membrane is soft and
@@ -24,12 +24,12 @@ import cadquery as cq
 import manifold3d
 import numpy as np
 
-from whisker import leads
+from whisker.design import leads
 from whisker.design import Design
 
 from . import bobbin as former
 from . import reference
-from .checks import VOLUME_EPS, Check, _check, to_mesh
+from .verdict import VOLUME_EPS, Check, make_check, to_mesh
 
 # The lead as modelled: enamelled 0.1 mm wire (whisker.coil.enamel_overall_diameter_mm).
 SPHERE_SEGMENTS = 8
@@ -41,7 +41,7 @@ def lead_diameter(d: Design) -> float:
 
 
 def lead_solid(d: Design, i: int, side: int, tilt_deg: float = 0.0) -> cq.Shape:
-    """One lead as a solid: a circle swept along its polyline (whisker.leads.path)."""
+    """One lead as a solid: a circle swept along its polyline (whisker.design.leads.path)."""
     pts = [cq.Vector(*p) for p in leads.path(d, i, side, tilt_deg)]
     r = lead_diameter(d) / 2
     segs = []
@@ -63,7 +63,7 @@ def _capsules(points: np.ndarray, r: float) -> manifold3d.Manifold:
 
 
 def _pose(d: Design, angle_deg: float, tilt_deg: float) -> np.ndarray:
-    """3 x 4 matrix: tilt whisker 0's pieces about its pivot (whisker.former.tilt), then turn to angle."""
+    """3 x 4 matrix: tilt whisker 0's pieces about its pivot (whisker.design.former.tilt), then turn to angle."""
     b = math.radians(-tilt_deg)
     p = np.array([d.whiskers.ring_radius, 0.0, d.pivot_z])
     m = np.array([[math.cos(b), 0, math.sin(b)], [0, 1, 0], [-math.sin(b), 0, math.cos(b)]])
@@ -81,11 +81,9 @@ def _overlaps(a: manifold3d.Manifold, b: manifold3d.Manifold) -> float:
 
 
 def static_pieces(d: Design, mount: cq.Shape, membrane: cq.Shape) -> dict[str, manifold3d.Manifold]:
-    from .sequence import _led_strip
-
     out = {"mount": _manifold(mount), "membrane": _manifold(membrane)}
     out.update({f"magnet {i}": _manifold(reference.magnet(d, a)) for i, a in enumerate(d.whisker_angles_deg)})
-    out.update({name: _manifold(s) for name, s in _led_strip(d)})
+    out["LED strip"] = _manifold(reference.led_strip(d))
     return out
 
 
@@ -95,10 +93,10 @@ def swing_check(d: Design, mount: cq.Shape, membrane: cq.Shape) -> list[Check]:
     rigid = {"rod": reference.rod(d), "bobbin": former.bobbin(d), "winding": former.winding_envelope(d)}
     own = max(rigid[a].intersect(rigid[b]).Volume() for a, b in (("rod", "bobbin"), ("rod", "winding"),
                                                                    ("bobbin", "winding")))
-    out = [_check("rod, bobbin and winding overlap", "assembly", own, own <= VOLUME_EPS, "0", "mm^3",
+    out = [make_check("rod, bobbin and winding overlap", "assembly", own, own <= VOLUME_EPS, "0", "mm^3",
                   ("bobbin.tab", "bobbin.socket_depth", "coil.drop", "whiskers.rod_length"))]
     # The rods up to the membrane's upper face: above it they meet only each other, at the tips, when
-    # every whisker retracts past asin(R / l_u) (whisker.leads.tips_meet_deg), which is the grasp.
+    # every whisker retracts past asin(R / l_u) (whisker.design.leads.tips_meet_deg), which is the grasp.
     below = cq.Solid.makeBox(200, 200, 200, cq.Vector(-100, -100, d.membrane.thickness - 200))
     rest = {k: _manifold(v.intersect(below) if k == "rod" else v) for k, v in rigid.items()}
     static = static_pieces(d, mount, membrane)
@@ -127,12 +125,12 @@ def swing_check(d: Design, mount: cq.Shape, membrane: cq.Shape) -> list[Check]:
             v = _overlaps(ma, mb)
             if v > max(worst, VOLUME_EPS):
                 worst, where = v, f"{na} and {nb} overlap by {v:.3g} mm^3 at tilt {float(tilt):+.3g} deg"
-    out.append(_check("solids overlapping over the swing", "assembly", worst, worst <= VOLUME_EPS, "0", "mm^3",
+    out.append(make_check("solids overlapping over the swing", "assembly", worst, worst <= VOLUME_EPS, "0", "mm^3",
                       ("whiskers.max_deflection_deg", "bobbin.tab", "coil.length", "actuation.gap",
                        "mount.cable_exit_count", "membrane.inscribed_radius"), where))
     rep = leads.length_report(d)
     need = rep["needed_to_outside_mm"]
-    out.append(_check("coil lead length for the full swing", "assembly", d.bom.coil_lead_length,
+    out.append(make_check("coil lead length for the full swing", "assembly", d.bom.coil_lead_length,
                       d.bom.coil_lead_length >= need, f">= {need:.3g}", "mm", ("bom.coil_lead_length",),
                       f"longest taut path {rep['longest_free_mm']:.3g} mm, swing slack {rep['swing_slack_mm']:.3g} mm"))
     return out

@@ -17,7 +17,7 @@ mesh (the exported STL tessellation), not read from the design's numbers:
    that lie on the two features (they end at the part's edges, so the pair cannot slide off it):
    the reported thickness does not depend on the sampling.
 
-The result is a :class:`whisker.cad.checks.Check` naming the thinnest wall's two features and
+The result is a :class:`whisker.cad.verdict.Check` naming the thinnest wall's two features and
 where it is (x, y, z in the mesh's coordinates, mm). Units: mm.
 """
 
@@ -33,7 +33,7 @@ import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
-from .checks import Check, _check, to_mesh
+from .verdict import Check, make_check, to_mesh
 
 # Features closer than this are one opening, not two with a wall between them (mm).
 TOUCH = 1e-3
@@ -254,9 +254,9 @@ def wall_check(part_name: str, part: trimesh.Trimesh, features: Mapping[str, obj
     """One check: the thinnest wall between any two features, >= `min_wall` (mm)."""
     walls = thin_walls(part, features, min_wall, **kw)
     if not walls:
-        return _check("thinnest wall between features", part_name, float(min_wall), True, f">= {min_wall:g}",
+        return make_check("thinnest wall between features", part_name, float(min_wall), True, f">= {min_wall:g}",
                       "mm", parameters, f"none under {min_wall:g} mm (less {SLACK:g}) among {len(features)} features")
     w = walls[0]
     more = f" (+{len(walls) - 1} more thin walls)" if len(walls) > 1 else ""
-    return _check("thinnest wall between features", part_name, w.thickness, False, f">= {min_wall:g}", "mm",
+    return make_check("thinnest wall between features", part_name, w.thickness, False, f">= {min_wall:g}", "mm",
                   parameters, w.describe() + more)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from whisker.design import Design
 from whisker.files import atomic_write_json, atomic_write_text, publish, staging_dir
-from whisker.pins import supply_warnings
+from whisker.drive.pins import supply_warnings
 
 from . import diagram, netlist, pinout
 

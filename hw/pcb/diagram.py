@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from whisker.design import Design
-from whisker.pins import (HEADER_PIN, HEADER_POWER, LED_HEADER_PINS, RESERVED, module_makes_own_logic_supply,
+from whisker.drive.pins import (HEADER_PIN, HEADER_POWER, LED_HEADER_PINS, RESERVED, module_makes_own_logic_supply,
                           modules_needed, pin_map, used_gpio)
 
 
@@ -28,7 +28,7 @@ def draw(design: Design, path: str | Path | None = None):
     import matplotlib.pyplot as plt
     from matplotlib.patches import Circle, FancyBboxPatch, Rectangle
 
-    from whisker.driver import series_resistance_ohm
+    from whisker.coil.driver import series_resistance_ohm
 
     chans = pin_map(design)
     series_ohm = series_resistance_ohm(design)

@@ -10,10 +10,10 @@ is needed. Pin electrical types follow the hardware so that SKiDL's ERC can catc
   and GND POWER-IN. ENA/ENB sit on +5V (the module's jumpers), unused
   inputs of a half-used module are tied to GND, unused outputs are no-connect.
 - coils (L1..LN): two PASSIVE pins across one channel's outputs; with a series resistor
-  (``driver.series_resistance`` > 0, ``whisker.driver.series_resistance_ohm``) R1..RN (PASSIVE) sit
+  (``driver.series_resistance`` > 0, ``whisker.coil.driver.series_resistance_ohm``) R1..RN (PASSIVE) sit
   between OUT1/OUT3 (net COILi_OUTA) and coil pin A (net COILi_A).
 - the coil supply (PS1): + and GND POWER-OUT (net "+<supply>V"); the 5 V LED strip (D1): POWER-IN,
-  on the Pi's 5 V header pin (net "+5V_PI", ``whisker.pins.LED_HEADER_PINS``), not the coil supply.
+  on the Pi's 5 V header pin (net "+5V_PI", ``whisker.drive.pins.LED_HEADER_PINS``), not the coil supply.
 - a supply above the L298's 7 V logic maximum (the default 7.5 V) keeps each module's 5V-EN jumper:
   its regulator then drives the module's own +5V net (VLOGIC, ENA, ENB) instead of the supply; up to
   7 V the supply feeds VS and +5V with the jumper removed.
@@ -33,7 +33,7 @@ import re
 from dataclasses import dataclass, field
 
 from whisker.design import Design
-from whisker.pins import (HEADER_PIN, HEADER_POWER, LED_HEADER_PINS, PCA9685_CHANNELS, CoilChannel,
+from whisker.drive.pins import (HEADER_PIN, HEADER_POWER, LED_HEADER_PINS, PCA9685_CHANNELS, CoilChannel,
                           expander_boards_needed, module_makes_own_logic_supply, modules_needed, pin_map)
 
 
@@ -163,7 +163,7 @@ def _coil(sk, ckt, i: int, d: Design):
 
 
 def _resistor(sk, ckt, i: int, ohm: float, d: Design):
-    from whisker.driver import resistor_power_W, resistor_rating_W
+    from whisker.coil.driver import resistor_power_W, resistor_rating_W
 
     T = sk.Pin.types
     pins = [sk.Pin(num=1, name="1", func=T.PASSIVE), sk.Pin(num=2, name="2", func=T.PASSIVE)]
@@ -211,8 +211,8 @@ def build_circuit(design: Design) -> Board:
 
 def _build_circuit(sk, design: Design) -> Board:
     channels = pin_map(design)
-    from whisker.driver import series_resistance_ohm
-    from whisker.pins import used_gpio
+    from whisker.coil.driver import series_resistance_ohm
+    from whisker.drive.pins import used_gpio
 
     series_ohm = series_resistance_ohm(design)
 

@@ -9,12 +9,12 @@ Quantity rules (all inputs from the Design unless stated):
 - rods, coils, magnets: one per whisker (N = whiskers.count).
 - magnet wire: N x (winding wire length + 2 x bom.coil_lead_length) x (1 + bom.wire_waste); the
   winding is the turns that fit the bobbin's window (the coil calculator ``whisker.coil.winding`` on
-  the former's window, ``whisker.former``).
+  the former's window, ``whisker.design.former``).
 - screws and heat-set inserts: per fastened joint ([fasteners], the adapter's flange), ISO 4762
-  stock lengths for each stack (``whisker.fasteners.bom_lines``).
+  stock lengths for each stack (``whisker.design.fasteners.bom_lines``).
 - L298N modules: ceil(N / 2) (two H-bridge channels each); PCA9685 boards when wiring.expander is
-  "pca9685": ceil(2 N / 16). Pin counts and jumper wires come from ``whisker.pins.pin_map``.
-- series resistors: N when driver.series_resistance resolves to > 0 (``whisker.driver``), power
+  "pca9685": ceil(2 N / 16). Pin counts and jumper wires come from ``whisker.drive.pins.pin_map``.
+- series resistors: N when driver.series_resistance resolves to > 0 (``whisker.coil.driver``), power
   rating the smallest common one carrying the 100 % duty, cold-coil dissipation at <= 60 %.
 - Ecoflex: membrane CAD volume x (1 + bom.ecoflex_waste), grams with membrane.density.
 - PLA, per printed part, three estimates (benchmarks/results/bom.md compares them with the slicer):
@@ -24,10 +24,10 @@ Quantity rules (all inputs from the Design unless stated):
   reports (``--print-report``, used as the quantity when given). Plus bom.pla_waste.
 - LED strip: the whole cut segments that fit in the LED channel, whose circumference is
   2 pi (cavity_radius + mount.led_strip_thickness). A 5 V strip on the Pi's 5 V header pin
-  (``whisker.pins.LED_HEADER_PINS``), not on the coil supply.
+  (``whisker.drive.pins.LED_HEADER_PINS``), not on the coil supply.
 - coil supply: N x V_fs / coil.resistance + modules x the L298's quiescent current, rounded up to
   whole amperes: every coil fully on at once (the PWM on-phases all overlapping), V_fs from
-  ``whisker.guard.full_scale_voltage`` (the bridge's typical drop; a measured value when set).
+  ``whisker.drive.guard.full_scale_voltage`` (the bridge's typical drop; a measured value when set).
 """
 
 from __future__ import annotations
@@ -42,9 +42,9 @@ from typing import Optional
 
 from whisker.design import Design
 from whisker.resources import hw_dir
-from whisker.driver import RESISTOR_LOAD, resistor_power_W, resistor_rating_W, series_resistance_ohm
-from whisker.guard import full_scale_voltage
-from whisker.pins import (LED_HEADER_PINS, PCA9685_CHANNELS, expander_boards_needed, module_makes_own_logic_supply,
+from whisker.coil.driver import RESISTOR_LOAD, resistor_power_W, resistor_rating_W, series_resistance_ohm
+from whisker.drive.guard import full_scale_voltage
+from whisker.drive.pins import (LED_HEADER_PINS, PCA9685_CHANNELS, expander_boards_needed, module_makes_own_logic_supply,
                           modules_needed, pin_map, supply_warnings)
 
 COLUMNS = ("item", "category", "description", "quantity", "unit", "specification", "part_number",
@@ -95,7 +95,7 @@ class CoilWire:
 
 def coil_wire(design: Design) -> CoilWire:
     """Wire of one coil: the turns that fit the bobbin's winding window at [winding] fill_factor
-    (the coil calculator whisker.coil.winding on the former's window, whisker.former; no CAD), mm."""
+    (the coil calculator whisker.coil.winding on the former's window, whisker.design.former; no CAD), mm."""
     from whisker.coil import winding
 
     try:
@@ -138,9 +138,9 @@ class PrintSettings:
 
 def print_settings(design: Design) -> PrintSettings:
     """Shell = perimeters x extrusion_width, infill = fill_density, from the design's printer profile
-    (whisker.printer; PrusaSlicer keys). An auto (0) or percentage width counts as 1.125 x nozzle,
+    (whisker.design.printer; PrusaSlicer keys). An auto (0) or percentage width counts as 1.125 x nozzle,
     PrusaSlicer's automatic perimeter width."""
-    from whisker.printer import load_profile
+    from whisker.design.printer import load_profile
 
     prof = load_profile(design.print.profile)
 
@@ -240,7 +240,7 @@ L298_QUIESCENT_A = 0.070 + 0.036
 
 def supply_current_A(design: Design) -> float:
     """Coil supply current with every coil fully on at once, A: N x V_fs / R (+ the L298 modules'
-    quiescent current). V_fs = ``whisker.guard.full_scale_voltage``: the supply minus the bridge's
+    quiescent current). V_fs = ``whisker.drive.guard.full_scale_voltage``: the supply minus the bridge's
     typical drop, shared with the series resistor (8 x 3.22 V / 7 ohm = 3.68 A at 7.5 V; 8 x 5.24 V /
     7 ohm = 5.99 A without the resistor; 8.6 A without the drop either)."""
     coils = design.whiskers.count * full_scale_voltage(design) / design.coil.resistance
@@ -367,7 +367,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         p_rs = resistor_power_W(d)
         try:
             rating = resistor_rating_W(p_rs)
-        except ValueError as err:  # whisker.driver.DriverError: no common part carries it
+        except ValueError as err:  # whisker.coil.driver.DriverError: no common part carries it
             raise BomError(f"series resistor: {err}") from err
         add("series_resistor", "buy", "series resistor per coil (the paper's voltage dividing circuit)", _num(n),
             "pcs", f"{rs:g} ohm, {rating:g} W, 5 %, metal oxide or wirewound, axial",
@@ -392,7 +392,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
     add("microsd", "buy", "microSD card for the Pi OS", "1", "pcs", "16 GB or more, class A1",
         "any", "")
 
-    from whisker.camera_boards import profile
+    from whisker.design.camera_boards import profile
 
     cam = d.camera
     prof = profile(cam.board)
@@ -438,7 +438,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
     add("power_wire", "buy", "power wire supply -> modules", _num(2 * modules), "pcs",
         "22 AWG stranded, red/black", "any", f"+{vs:g} V and GND to each module's screw terminals")
 
-    from whisker import fasteners as fz
+    from whisker.design import fasteners as fz
 
     fastener_parts = {}
     for line in fz.bom_lines(design_joints(d)):
@@ -463,9 +463,9 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
 
 
 def design_joints(design: Design) -> list:
-    """Every fastened joint of the design (whisker.fasteners.Joint): the camera board's screws,
+    """Every fastened joint of the design (whisker.design.fasteners.Joint): the camera board's screws,
     the adapter's (mount, flange plate, robot) and the camera cover's."""
-    from whisker import fasteners as fz
+    from whisker.design import fasteners as fz
     from whisker.cad import adapter, cover
 
     f = design.fasteners
@@ -537,7 +537,7 @@ def _with_part_number(row: BomRow, design: Design, fastener_line: dict | None) -
 
     item, fill = row.item, {}
     if fastener_line is not None:
-        from whisker.fasteners import fastener
+        from whisker.design.fasteners import fastener
 
         item = "screw" if row.item.startswith("screw_") else "insert"
         f = fastener(fastener_line["size"])

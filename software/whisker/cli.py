@@ -1,4 +1,4 @@
-"""`whisker`: the command line. Subcommands live in whisker/commands/<name>.py, one module each,
+"""`whisker`: the command line. Subcommands live in whisker/commands/<group>/<name>.py, one module each,
 exposing a click command or group called `cli`; they are imported only when used, so
 `whisker --help` stays fast and a heavy library (CadQuery, OpenCV, MuJoCo) loads only for its command.
 
@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import errno
 import importlib
-import pkgutil
 
 import click
 
@@ -37,14 +36,14 @@ def _command_path(group: click.Group, ctx: click.Context, tokens: list[str]) -> 
 
 class LazyGroup(click.Group):
     def list_commands(self, ctx):
-        return sorted(m.name for m in pkgutil.iter_modules(commands.__path__) if not m.name.startswith("_"))
+        return sorted(commands.command_modules())
 
     def get_command(self, ctx, name):
         if name not in self.list_commands(ctx):
             return None
         from whisker.cliutil import harden_numbers
 
-        return harden_numbers(importlib.import_module(f"whisker.commands.{name}").cli)
+        return harden_numbers(importlib.import_module(commands.command_modules()[name]).cli)
 
     def invoke(self, ctx):
         from whisker.errors import debug_requested, explain

@@ -21,6 +21,15 @@ import os
 BAD_INPUT = 2
 ENVIRONMENT = 1
 
+
+# Bases defined here, at the bottom, so that explain() needs none of the modules that raise them.
+class BadInput(RuntimeError):
+    """The user's input, though not a ValueError (a recording folder that cannot be used): status 2."""
+
+
+class EnvironmentFault(RuntimeError):
+    """The machine's fault, not the input's (a camera that cannot be opened): status 1."""
+
 #: errno -> (exit status, what to do)
 _OS_HINTS = {
     errno.ENOENT: (BAD_INPUT, "check the path"),
@@ -50,9 +59,6 @@ def _one_line(text: str) -> str:
 
 def explain(err: BaseException) -> tuple[int, str]:
     """(exit status, one line) for an exception raised by a command."""
-    from whisker.camera import SourceError
-    from whisker.recording import RecordingError
-
     if isinstance(err, OSError):
         code, hint = _OS_HINTS.get(err.errno, (ENVIRONMENT, "check the path and the disk"))
         where = err.filename if err.filename is not None else ""
@@ -64,9 +70,9 @@ def explain(err: BaseException) -> tuple[int, str]:
         return BAD_INPUT, _one_line(f"input is not UTF-8 text ({err}); give a text file saved as UTF-8")
     if isinstance(err, MemoryError):
         return ENVIRONMENT, "out of memory: make the job smaller (fewer steps, samples or frames)"
-    if isinstance(err, (ValueError, RecordingError)):
+    if isinstance(err, (ValueError, BadInput)):
         return BAD_INPUT, _one_line(str(err) or type(err).__name__)
-    if isinstance(err, SourceError):
+    if isinstance(err, EnvironmentFault):
         return ENVIRONMENT, _one_line(str(err))
     if type(err).__name__ in ("MissingModule", "SimulationError"):
         return ENVIRONMENT, _one_line(str(err))

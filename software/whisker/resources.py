@@ -37,7 +37,7 @@ def sequences_dir() -> Path:
 
 def scenes_dir() -> Path:
     """The example sim scenes and the paper's objects (``software/whisker/sim/scenes/``)."""
-    return _folder("whisker.sim") / "scenes"
+    return _folder("whisker") / "sim" / "scenes"  # not files("whisker.sim"): that would import the simulator
 
 
 def example(path: str | os.PathLike, folder: Path) -> Path:

@@ -7,8 +7,8 @@
     actuation_backend(design)            set_levels/off backend for `whisker actuate --backend sim`
 """
 
-from whisker.sim.backend import SimBackend, actuation_backend
-from whisker.sim.effects import Plan, plan
+from whisker.drive.simulated import SimBackend, actuation_backend
+from whisker.sim.effects.plan import Plan, plan
 from whisker.sim.scene import Scene, SceneError, load_scene, scene_design, scene_from_dict
 from whisker.sim.simulate import Result, SimulationError, simulate
 

@@ -1,12 +1,12 @@
 """The camera and tracking effects: simulated frames -> tracker -> geometry, against ground truth.
 
 Built when the scene's camera is on and frames, video or tracks are asked for. Each frame: the
-markers' sensor-frame positions (whisker.sim.kinematics) projected by ``whisker.render.marker_pixels``
+markers' sensor-frame positions (whisker.coil.kinematics) projected by ``whisker.vision.render.marker_pixels``
 (the design's pinhole, the lens distortion of the tracker's calibration when given), drawn by
-``whisker.render.render_frame`` (coil blocks, red markers, wires, LED ring, noise and blur, seeded
-per frame). With ``camera.calibration`` (a lens .npz of any model, whisker.lens: the authors' lens calibration
+``whisker.vision.render.render_frame`` (coil blocks, red markers, wires, LED ring, noise and blur, seeded
+per frame). With ``camera.calibration`` (a lens .npz of any model, whisker.vision.lens: the authors' lens calibration
 or one from ``whisker calibrate camera``, standard or fisheye) the frames carry that lens's distortion and the tracker undistorts its centroids.
-The tracking effect calibrates a ``whisker.tracking.Tracker`` on rest frames (the
+The tracking effect calibrates a ``whisker.vision.tracking.Tracker`` on rest frames (the
 paper's rest baseline), tracks every frame, converts the pixel displacements with the tracker's
 geometry (the paper's equations) and compares the tips with the simulator's ground truth.
 """
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from whisker.sim.kinematics import marker_positions_mm, tip_positions_mm
+from whisker.coil.kinematics import marker_positions_mm, tip_positions_mm
 
 
 @dataclass

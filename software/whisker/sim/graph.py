@@ -1,5 +1,5 @@
 """The effect graph's types: one :class:`Effect` (built or skipped, with its reason) and the
-:class:`Plan` of a scene (whisker.sim.effects decides them). Plain data; imports nothing of the simulator."""
+:class:`Plan` of a scene (whisker.sim.effects.plan decides them). Plain data; imports nothing of the simulator."""
 
 from __future__ import annotations
 

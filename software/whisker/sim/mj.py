@@ -7,8 +7,8 @@ Units inside MuJoCo are SI (m, kg, s); the scene's mm and g are converted here.
   scene's path (the UR16e's prescribed motion; a mocap body would move with zero velocity, so
   friction would not see the lift).
 - Each whisker is a rigid body on two hinges at its pivot (radial tilt about -t, then tangential
-  about -r: the same universal joint as whisker.sim.kinematics), with the membrane as joint
-  stiffness/damping, the inertia of :class:`~whisker.sim.kinematics.WhiskerBody` given explicitly
+  about -r: the same universal joint as whisker.coil.kinematics), with the membrane as joint
+  stiffness/damping, the inertia of :class:`~whisker.coil.kinematics.WhiskerBody` given explicitly
   (so both models carry the same mass data), a hard stop as the joint range, and geoms: a capsule
   rod (``contact.rod_friction``) and a sand-coated tip capsule over ``contact.tip_coating`` mm.
   Whiskers do not collide with each other (in the paper they cross in the centre when all retract
@@ -36,11 +36,11 @@ import math
 import numpy as np
 
 from whisker.sim.drive import Drive
-from whisker.sim.effects import CONTACT_MODELS
+from whisker.sim.effects.plan import CONTACT_MODELS
 from whisker.sim.meshes import mesh_bounds, mesh_path
 from whisker.sim.result import SimulationError
 from whisker.sim.scene import SceneError
-from whisker.sim.timeline import pose_at, poses_table
+from whisker.sim.drive import pose_at, poses_table
 
 MM = 1e-3
 
@@ -186,7 +186,7 @@ class MjScene:
             self.model = mujoco.MjModel.from_xml_string(self.xml)
         except ValueError as err:
             raise SceneError(f"MuJoCo refused the scene: {str(err).splitlines()[0]}") from None
-        for model in CONTACT_MODELS:           # contact models beyond the rigid one (whisker.sim.effects)
+        for model in CONTACT_MODELS:           # contact models beyond the rigid one (whisker.sim.effects.plan)
             if plan.built(model.NAME):
                 model.apply(plan.effect(model.NAME), self)
         self.data = mujoco.MjData(self.model)

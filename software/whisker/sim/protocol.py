@@ -1,6 +1,6 @@
 """The grasp protocol (paper Section III-B) as scenes: its timeline, the drive level, one attempt as
-a plain scene, and where an attempt puts the object. Below the plan (whisker.sim.effects predicts a
-grasp's coil heating from :func:`grasp_scene`) and the experiments (whisker.sim.paper runs them).
+a plain scene, and where an attempt puts the object. Below the plan (whisker.sim.effects.plan predicts a
+grasp's coil heating from :func:`grasp_scene`) and the experiments (whisker.sim.experiments.paper runs them).
 
 The sensor starts ``START_HEIGHT`` mm above the object's top, descends until the tips are
 ``experiment.tip_height`` mm above the table, drives the configuration's coils at the design's
@@ -22,7 +22,7 @@ START_HEIGHT = 15.0   # mm of tip clearance above the object's top at the start
 
 def grasp_level(design) -> float:
     """The grasp's level: the design's ``actuation.voltage`` (paper: 3 V) / the full-scale coil voltage
-    (``whisker.guard``; refused above the coil rating or beyond full scale)."""
+    (``whisker.drive.guard``; refused above the coil rating or beyond full scale)."""
     from whisker.sim.contract import volts_to_level
     try:
         return volts_to_level(design, design.actuation.voltage)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from whisker.sim import experiments as ex
+from whisker.sim.experiments import repeat as ex
 from whisker.sim.run import finite_summary, plot_angles, png_bytes, tracks_csv, write_run
 from whisker.sim.simulate import simulate
 
@@ -68,7 +68,7 @@ def run_scene(scene, design, plan, out: Path, progress=None) -> dict:
         summary.update(volts=r["volts"], theta_deg=r["theta_deg"], at_stop=r["at_stop"])
         summary["headline"] = "angle vs voltage:\n" + ex.angle_table(r)
     else:
-        from whisker.sim import paper
+        from whisker.sim.experiments import paper
         summary.update(paper.run(kind, scene, design, files, progress=progress))
     summary["wall_time_s"] = time.perf_counter() - t0
     if progress:

@@ -15,7 +15,7 @@ Conventions (see docs/sim.md):
   vertical; between waypoints the pose moves linearly (the arm's linear moves);
 - an actuation event ``{t = s, level = l, whiskers = [...]}`` sets the signed duty ``l`` in [-1, 1]
   (+ retracts, tips toward the centre) of the listed whiskers (default all) from time t on; level 1
-  is the full-scale coil voltage ``whisker.guard.full_scale_voltage(design)``, the actuation module's
+  is the full-scale coil voltage ``whisker.drive.guard.full_scale_voltage(design)``, the actuation module's
   definition (``drive.full_scale_voltage`` when measured, else the driver model); a scene changes it
   through its design (``[design] set = ["drive.full_scale_voltage=1.0"]``).
 """
@@ -28,7 +28,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from whisker.design import one_line_errors, parse_value
-from whisker.sim.airflow import AirflowSpec
+from whisker.sim.effects.airflow import AirflowSpec
 from whisker.sim.materials import Material
 from whisker.files import read_toml
 
@@ -230,7 +230,7 @@ class ActuationSpec(_S):
     @classmethod
     def _no_voltage(cls, v: float | None) -> None:
         if v is not None:
-            raise ValueError("a level is a fraction of the full-scale coil voltage (whisker.guard."
+            raise ValueError("a level is a fraction of the full-scale coil voltage (whisker.drive.guard."
                              "full_scale_voltage); set it in the design: [design] set = "
                              f"[\"drive.full_scale_voltage={v:g}\"]")
         return None
@@ -249,10 +249,10 @@ class CameraSpec(_S):
     fps: float = Field(30.0, gt=0, le=1000, description="frames per second")
     noise_sigma: float = Field(2.0, ge=0, le=100, description="grey levels of Gaussian noise")
     blur_px: float = Field(0.8, ge=0, le=20, description="px, Gaussian blur sigma")
-    method: str = Field("roi", description="tracking method (whisker.tracking); default roi, the tracker's own "
+    method: str = Field("roi", description="tracking method (whisker.vision.tracking); default roi, the tracker's own "
                                            "default: the paper's pipeline (method 'paper') loses markers on the "
                                            "design's small dots (docs/tracking.md)")
-    geometry: Literal["paper", "exact"] = Field("paper", description="pixels -> tip model (whisker.geometry)")
+    geometry: Literal["paper", "exact"] = Field("paper", description="pixels -> tip model (whisker.vision.geometry)")
     calibration: str = Field("", description="lens calibration .npz (mtx, dist), relative to the scene: the "
                                              "frames get its distortion and the tracker undistorts; empty: pinhole")
 
@@ -268,7 +268,7 @@ class Outputs(_S):
 
 
 class Fidelity(_S):
-    magnetics: str = Field("table", description="whisker.magnetics model name")
+    magnetics: str = Field("table", description="whisker.coil.magnetics model name")
     magnetics_lookup: int = Field(256, ge=0, le=100000,
                                   description="sample the magnetics model at this many gaps once per run and "
                                               "interpolate (0: call the model every step)")
@@ -320,7 +320,7 @@ class ContactSpec(_S):
 
 
 class Experiment(_S):
-    """Repeat the scene with variations (the paper's experiments); see whisker.sim.experiments."""
+    """Repeat the scene with variations (the paper's experiments); see whisker.sim.experiments.repeat."""
     kind: Literal["none", "angle_vs_voltage", "grasp", "displacement", "classification"] = "none"
     voltages: list[Annotated[float, Field(ge=-100, le=100)]] = Field(default_factory=list, description="V, angle_vs_voltage")
     configurations: list[list[int]] = Field(default_factory=list,

@@ -11,14 +11,14 @@ import math
 import numpy as np
 
 from whisker.sim.drive import Drive
-from whisker.sim.effects import plan as make_plan
+from whisker.sim.effects.plan import plan as make_plan
 from whisker.sim.graph import Plan
-from whisker.sim.kinematics import (WhiskerBody, energy_J, gravity_torque, marker_positions_mm,
+from whisker.coil.kinematics import (WhiskerBody, energy_J, gravity_torque, marker_positions_mm,
                                     static_equilibrium, step_free, tip_positions_mm, whisker_body)
 from whisker.sim.mj import MjScene
 from whisker.sim.result import Result, SimulationError, check_finite  # noqa: F401 (public here)
 from whisker.sim.scene import Scene, SceneError
-from whisker.sim.timeline import levels_at, levels_table, poses_table
+from whisker.sim.drive import levels_at, levels_table, poses_table
 
 
 def simulate(scene: Scene, design=None, plan: Plan | None = None, progress=None,
@@ -75,7 +75,7 @@ def _free(scene, design, plan, body, progress, record_hz) -> Result:
     table = levels_table(scene, n, np.arange(steps + 1) * dt)
     wind = None
     if plan.built("airflow"):
-        from whisker.sim.airflow import AirflowDrag
+        from whisker.sim.effects.airflow import AirflowDrag
         wind = AirflowDrag(design, scene.airflow, seed=scene.scene.seed)
     for k in range(steps + 1):
         t = k * dt

@@ -71,7 +71,7 @@ def check(scene, design, plan) -> None:
         raise SceneError("scene.duration must be > 0 s for time stepping (the scene moves: "
                          f"{plan.solver} solver); give a duration or let nothing move for a static solve")
     try:
-        from whisker.sim.kinematics import whisker_body
+        from whisker.coil.kinematics import whisker_body
 
         body = whisker_body(design)
     except MissingModule:

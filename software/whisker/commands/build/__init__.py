@@ -1,0 +1,1 @@
+"""Commands that make the hardware from the design: `design`, `cad`, `print`, `coil`, `hw`, `explore`."""

@@ -1,0 +1,264 @@
+"""`whisker coil`: what to wind, what it will do, how long it can stay on, and how to drive it."""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+from pathlib import Path
+
+import click
+
+from whisker.cliutil import design_options, fail
+
+#: most rows `coil thermal` prints (one per --step)
+MAX_THERMAL_ROWS = 100_000
+#: mm, the largest gap `coil force` tabulates: beyond it the force is nil and the models' series overflow
+MAX_GAP_MM = 1000.0
+
+# shortcut option -> design parameter
+_SHORTCUTS = {
+    "wire": "coil.wire_diameter", "enamel_grade": "winding.enamel_grade", "inner": "coil.inner_diameter",
+    "outer": "coil.outer_diameter", "length": "coil.length", "fill": "winding.fill_factor",
+    "resistance": "coil.resistance", "supply": "driver.supply_voltage", "driver_name": "driver.type",
+    "gap": "actuation.gap", "stiffness": "mechanics.rotational_stiffness",
+}
+
+
+#: a shortcut's value is passed on as typed, so the design model (pydantic) parses and bounds it
+#: exactly as it does `--set section.key=VALUE` (and `design show`)
+DESIGN_VALUE = click.STRING
+
+
+def coil_options(f):
+    """Design options plus coil shortcuts (--wire, --turns, --fill ...) applied as overrides.
+
+    The shortcuts become ``--set`` overrides on the same loading path as every other command
+    (whisker.cliutil.design_options -> load_design), so `coil report --wire X` and
+    `design show --set coil.wire_diameter=X` accept and refuse exactly the same values.
+    """
+    inner = design_options(_turns_max(f))
+
+    @click.option("--wire", type=DESIGN_VALUE, help="Bare wire diameter, mm (coil.wire_diameter).")
+    @click.option("--enamel-grade", type=click.IntRange(1, 3), help="IEC 60317 enamel grade 1-3 (winding.enamel_grade).")
+    @click.option("--inner", type=DESIGN_VALUE, help="Coil bore diameter, mm (coil.inner_diameter).")
+    @click.option("--outer", type=DESIGN_VALUE, help="Coil outer diameter, mm (coil.outer_diameter).")
+    @click.option("--length", type=DESIGN_VALUE, help="Coil length along its axis, mm (coil.length).")
+    @click.option("--turns", help="Turns (coil.turns), or 'max' for as many as fit at the fill factor.")
+    @click.option("--fill", type=DESIGN_VALUE, help="Copper fill factor (winding.fill_factor).")
+    @click.option("--resistance", type=DESIGN_VALUE, help="Measured coil resistance at 20 C, ohm (coil.resistance).")
+    @click.option("--supply", type=DESIGN_VALUE, help="Supply into the H-bridge, V (driver.supply_voltage).")
+    @click.option("--driver", "driver_name", type=click.Choice(["L298N", "TB6612FNG", "DRV8833"]),
+                  help="H-bridge (driver.type).")
+    @click.option("--gap", type=DESIGN_VALUE, help="Coil-magnet gap at rest, mm (actuation.gap).")
+    @click.option("--stiffness", type=DESIGN_VALUE, help="Membrane rotational stiffness, N*mm/rad.")
+    @functools.wraps(inner)
+    def wrapper(*args, overrides=(), turns=None, **kwargs):
+        over = list(overrides)
+        for key, param in _SHORTCUTS.items():
+            v = kwargs.pop(key, None)
+            if v is not None:   # the text as typed: the design model parses and bounds it, as for --set
+                over.append(f"{param}={v!r}" if key == "driver_name" else f"{param}={v}")
+        if turns is not None and turns != "max":
+            over.append(f"coil.turns={turns}")
+        return inner(*args, overrides=tuple(over), turns_max=turns == "max", **kwargs)
+    return wrapper
+
+
+def _turns_max(f):
+    """--turns max: as many turns as fit at the (validated) design's fill factor."""
+    @functools.wraps(f)
+    def wrapper(*args, design, turns_max=False, **kwargs):
+        if turns_max:
+            from whisker.coil import winding
+            from whisker.design import DesignError, apply_overrides, design_from_dict
+
+            try:
+                design = design_from_dict(apply_overrides(design.to_dict(), [
+                    f"coil.turns={winding(design).max_turns_at_fill}"]))
+            except DesignError as err:
+                fail(f"design refused: {err}")
+        return f(*args, design=design, **kwargs)
+    return wrapper
+
+
+def _guard(fn):
+    """Turn the calculators' one-line errors into a clean exit (status 2)."""
+    @functools.wraps(fn)
+    def wrapper(*a, **k):
+        from whisker.coil import CoilError
+        from whisker.coil.driver import DriverError
+        from whisker.coil.magnetics import MagneticsError
+        try:
+            return fn(*a, **k)
+        except (CoilError, DriverError, MagneticsError) as err:
+            fail(str(err))
+    return wrapper
+
+
+@click.group()
+def cli():
+    """Coil calculator: winding, force, deflection, heating and driver for the whisker coils.
+
+    Every number comes from the design (hw/sensor.toml plus --set overrides); the shortcut options
+    (--wire, --turns, --fill, --supply, --driver ...) are overrides too. See docs/coil.md.
+    """
+
+
+@cli.command()
+@coil_options
+@click.option("--volts", type=float, default=None, help="Volts across the coil (default: actuation.voltage).")
+@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@click.option("--out", type=click.Path(file_okay=False), default=None,
+              help="Also write report.txt, report.json, force.png and temperature.png into this folder.")
+@_guard
+def report(design, volts, as_json, out):
+    """Full report: winding (fits?), resistance, current, force vs gap, deflection, heating, driver."""
+    from whisker.coil.report import build_report, format_report, plot_force, plot_temperature
+    from whisker.files import atomic_write_json, atomic_write_text
+
+    rep = build_report(design, volts)
+    text = format_report(rep)
+    click.echo(json.dumps(rep, indent=2, allow_nan=False) if as_json else text)
+    if out:
+        o = Path(out)
+        atomic_write_text(o / "report.txt", text + "\n")
+        atomic_write_json(o / "report.json", rep)
+        plot_force(design, o / "force.png")
+        plot_temperature(design, o / "temperature.png", rep["electrical"]["volts_at_coil"])
+        click.echo(f"wrote {o}/report.txt, report.json, force.png, temperature.png", err=True)
+
+
+@cli.command()
+@coil_options
+@click.option("--model", "models", multiple=True,
+              type=click.Choice(["dipole", "dipole_field", "filament", "magpylib", "table"]),
+              help="Model(s) to tabulate (repeatable; default: table).")
+@click.option("--gaps", default="0.2,0.5,1,2,2.5,5,10", show_default=True, help="Comma-separated gaps, mm.")
+@click.option("--volts", type=float, default=None, help="Also give the force at this coil voltage (20 C).")
+@_guard
+def force(design, models, gaps, volts):
+    """Force on the coil towards the magnet per ampere (mN/A) against gap, for each model."""
+    import numpy as np
+
+    from whisker.coil import current_A
+    from whisker.coil.magnetics import force_per_ampere_N
+
+    try:
+        g = np.array([float(x) for x in gaps.split(",") if x.strip()])
+    except ValueError:
+        fail(f"--gaps: not a comma-separated list of numbers: {gaps!r}")
+    if g.size == 0 or not np.all((g > 0) & (g <= MAX_GAP_MM)):
+        fail(f"--gaps: every gap must be in (0, {MAX_GAP_MM:g}] mm (got {gaps!r})")
+    models = models or ("table",)
+    cur = current_A(design, volts) if volts is not None else None
+    head = "gap_mm " + " ".join(f"{m + '_mN/A':>16s}" for m in models)
+    if cur is not None:
+        head += f"   mN at {volts:g} V ({cur:.3f} A, {models[-1]})"
+    click.echo(head)
+    cols = [np.atleast_1d(force_per_ampere_N(design, g, model=m)) * 1e3 for m in models]
+    for i, gi in enumerate(g):
+        line = f"{gi:6.2f} " + " ".join(f"{c[i]:16.4f}" for c in cols)
+        if cur is not None:
+            line += f"   {cols[-1][i] * cur:10.3f}"
+        click.echo(line)
+
+
+@cli.command()
+@coil_options
+@click.option("--volts", type=float, multiple=True, help="Coil voltages (repeatable; default 0.5..actuation.voltage).")
+@_guard
+def deflection(design, volts):
+    """Steady whisker tilt against coil voltage, with the pull-in (snap-through) voltage."""
+    import numpy as np
+
+    from whisker.coil import current_A, equilibrium, pull_in, resistance_ohm
+
+    vs = volts or tuple(np.round(np.linspace(0.5, design.actuation.voltage, 6), 3))
+    i_pull, th_pull = pull_in(design)
+    pull = (f"pull-in above {i_pull:.3f} A = {i_pull * resistance_ohm(design):.2f} V (at {math.degrees(th_pull):.1f} deg)"
+            if math.isfinite(i_pull) else "no pull-in (the coil cannot reach the magnet)")
+    click.echo(f"stiffness {design.mechanics.rotational_stiffness:g} N*mm/rad, gap {design.actuation.gap:g} mm; {pull}")
+    click.echo("volts  current_A  tilt_deg  gap_mm  state")
+    for v in vs:
+        eq = equilibrium(design, current_A(design, float(v)))
+        tilt = f"{eq.theta_deg:8.2f}" if eq.stable else "    snap"
+        click.echo(f"{float(v):5.2f}  {eq.current_A:9.3f}  {tilt}  {eq.gap_mm:6.2f}  {eq.message}")
+
+
+@cli.command("fit-stiffness")
+@coil_options
+@click.argument("points", nargs=-1, required=True)
+@click.option("--amps", is_flag=True, help="Points are CURRENT:DEG instead of VOLTS:DEG.")
+@_guard
+def fit_stiffness_cmd(design, points, amps):
+    """Fit mechanics.rotational_stiffness to measured points VOLTS:DEG (e.g. 1:3.5 2:8 3:15)."""
+    from whisker.coil import fit_stiffness
+
+    pts = []
+    for p in points:
+        try:
+            a, b = p.split(":")
+            pts.append((float(a), float(b)))
+        except ValueError:
+            fail(f"point {p!r}: expected DRIVE:DEGREES, e.g. 3:15")
+    res = fit_stiffness(design, pts, by="amps" if amps else "volts")
+    click.echo(f"rotational stiffness {res['rotational_stiffness_Nmm_per_rad']:.4g} N*mm/rad from "
+               f"{res['points']} point(s), rms residual {res['rms_residual_deg']:.3g} deg")
+    click.echo(f"use it: --set {res['set']}  (or edit [mechanics] in your design file)")
+
+
+@cli.command()
+@coil_options
+@click.option("--volts", type=float, default=None, help="Volts across the coil (default: actuation.voltage).")
+@click.option("--duty", type=click.FloatRange(0, 1), default=1.0, show_default=True, help="PWM duty.")
+@click.option("--seconds", type=float, default=None, help="Duration (default: 4 thermal time constants).")
+@click.option("--step", type=float, default=1.0, show_default=True, help="Print interval, s.")
+@click.option("--convection", type=click.Choice(["constant", "churchill_chu"]), default="constant",
+              show_default=True, help="Constant thermal.convection_coefficient, or Churchill-Chu h(T).")
+@_guard
+def thermal(design, volts, duty, seconds, step, convection):
+    """Coil temperature against time at a voltage and duty; time to each limit; safe duty."""
+    from whisker.coil.thermal import CoilThermal
+
+    v = design.actuation.voltage if volts is None else volts
+    th = CoilThermal(design, convection=convection)
+    s = {"limit": th.limit_name, "limit_C": th.limit_C, "safe_duty": th.safe_duty(v)}
+    t_end = seconds or 4.0 * th.time_constant_s
+    if not step > 0 or t_end < 0:
+        fail(f"--step must be > 0 s and --seconds >= 0 (got step {step:g}, seconds {t_end:g})")
+    if t_end / step > MAX_THERMAL_ROWS:
+        fail(f"--seconds {t_end:g} / --step {step:g} is {t_end / step:.3g} rows, over {MAX_THERMAL_ROWS}; "
+             "give a larger --step")
+    click.echo(f"{v:g} V, duty {duty:g}: steady state {th.steady_state_C(v, duty):.0f} C; first limit "
+               f"{s['limit']} {s['limit_C']:g} C after {th.time_to_C(th.limit_C, v, duty):.3g} s; "
+               f"safe duty {s['safe_duty'] * 100:.1f} %")
+    click.echo("t_s   T_C")
+    t, T = 0.0, th.ambient_C
+    while t <= t_end + 1e-9:
+        click.echo(f"{t:6.1f} {T:7.2f}")
+        T = th.step_voltage(T, v, step, duty)
+        t += step
+
+
+@cli.command()
+@coil_options
+@click.option("--volts", type=float, default=None, help="Target volts across the coil (default: actuation.voltage).")
+@click.option("--amps", type=float, default=None, help="Target coil current instead (A, cold coil).")
+@click.option("--series", type=click.Choice(["E24", "E96"]), default="E24", show_default=True)
+@_guard
+def driver(design, volts, amps, series):
+    """Bridge drop, supply needed, series resistor / divider / PWM, and the alternative drivers."""
+    from whisker.coil.report import build_report, format_report
+
+    from whisker.coil import driver as drv
+    from whisker.coil import resistance_ohm
+
+    if amps is not None:
+        if volts is not None:
+            fail("give --volts or --amps, not both")
+        volts = amps * resistance_ohm(design, 20.0)
+    rep = build_report(design, volts)
+    rep["driver"] = drv.plan(design, volts, series=series)
+    text = format_report(rep)
+    click.echo(text[text.index("DRIVER"):])

@@ -1,0 +1,714 @@
+"""Marker tracking: the paper's pipeline and faster, more exact ones, with identities that never swap.
+
+Methods (all return one position per whisker; see docs/tracking.md for measured accuracy and speed):
+
+``paper``    exactly the paper's pipeline: BGR -> HSV, red mask (the authors' thresholds
+             H 0-10 or 170-180, S >= 80, V >= 60, from their public code), erosion with a 10x10
+             kernel of ones, ``cv2.findContours``, centroid from ``cv2.moments``. The even kernel
+             shifts every centroid by half a pixel in x and y (cancels in displacements) and the
+             erosion removes most of a ~13 px marker, so noise splits or deletes markers.
+``contour``  the same HSV mask, then close-then-open with an odd 5x5 ellipse (no shift; removes wires
+             up to 4 px wide), an area filter, contour moments.
+``blob``     full-frame "redness" R - max(G, B) (cv2 saturating ops), threshold, 5x5 open, connected
+             components with an area/shape filter, then the intensity-weighted centroid of the
+             redness above the threshold (subpixel, uses every grey level, not a binary shape).
+``roi``      the blob centroid computed only in a small window around each marker's last position
+             (all windows in one numpy gather, re-centred once if the marker moved); a whisker whose
+             window fails (lost, merged, at the border) falls back to a full-frame ``blob`` search.
+``fit``      ``roi``, then a least-squares fit of a blurred disc to each marker (2 Gauss-Newton steps,
+             all markers at once): the most exact and the slowest of the subpixel methods.
+
+Identity: whisker i is the marker nearest the design's projected rest position of whisker i
+(`whisker.vision.geometry.project`, so the mirror of the up-looking camera and tracking.image_up_deg are
+taken into account), refined by the median offset of the ring. Frame to frame, detections are
+matched to the previous positions (or the rest baseline) with the Hungarian method
+(`scipy.optimize.linear_sum_assignment`) and a distance gate below half the marker spacing, so a
+marker can never take over a neighbour's identity: it is flagged invalid instead.
+
+Per-whisker status: ``ok``, ``lost`` (nothing within the gate), ``merged`` (one blob where two
+markers should be, or two whiskers on one spot), ``border`` (touches the image edge: centroid
+truncated), ``bad-frame`` (the frame itself is unusable; `TrackResult.message` says why).
+`Tracker.track` never raises on a bad frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from whisker.vision import geometry
+
+METHODS = ("paper", "contour", "blob", "roi", "fit")
+
+# The authors' HSV thresholds (OpenCV hue 0..180), from their public whiskerTrack.py.
+HSV_RED = (((0, 80, 60), (10, 255, 255)), ((170, 80, 60), (180, 255, 255)))
+PAPER_KERNEL = 10          # px, the paper's erosion kernel (10x10 ones)
+ODD_KERNEL = 5             # px, ellipse for close/open in the better methods
+REDNESS_THRESHOLD = 30     # grey levels of redness that count as marker (benchmarks: 30 vs 20/40)
+STATUS = ("ok", "lost", "merged", "border", "bad-frame")
+
+
+class CalibrationError(ValueError):
+    """The rest frames do not show every marker often enough; one line naming the whiskers."""
+
+
+@dataclass
+class Detections:
+    """Full-frame candidates, in tracking pixel coordinates."""
+    xy: np.ndarray       # (M, 2)
+    area: np.ndarray     # (M,) px^2
+    border: np.ndarray   # (M,) bool, touches the image edge
+
+    @staticmethod
+    def empty() -> "Detections":
+        return Detections(np.zeros((0, 2)), np.zeros(0), np.zeros(0, bool))
+
+
+@dataclass
+class TrackResult:
+    """One frame. positions_px: (N, 2) marker centres (undistorted if a calibration is used), NaN
+    where invalid; valid: (N,) bool; status: per whisker (see module doc); dx_px, dy_px: (N,)
+    displacement from the rest baseline (NaN when invalid or not calibrated); message: why a whole
+    frame was refused ('' otherwise)."""
+    positions_px: np.ndarray
+    valid: np.ndarray
+    status: list
+    dx_px: np.ndarray
+    dy_px: np.ndarray
+    method: str
+    message: str = ""
+    detections: int = 0
+    track_px: np.ndarray | None = None  # positions in the coordinates of the tracked (raw or remapped) frame
+    fit_refused: int = 0                # 'fit' method: valid markers whose disc fit was refused (kept their centroid)
+
+    @property
+    def all_valid(self) -> bool:
+        return bool(np.all(self.valid))
+
+
+def load_calibration(path) -> tuple[np.ndarray, np.ndarray]:
+    """(mtx, dist) from a standard-model lens .npz (`whisker.vision.lens.load_lens` reads every model).
+
+    A fisheye file is refused here (its 4 coefficients mean something else to cv2.undistortPoints).
+    """
+    from whisker.vision.lens import load_lens
+
+    lens = load_lens(path)
+    if lens.fisheye:
+        raise ValueError(f"calibration file {path} is a fisheye-model lens; read it with whisker.vision.lens.load_lens")
+    return lens.mtx, lens.dist
+
+
+def load_mask(mask, shape=None) -> np.ndarray:
+    """A region-of-interest mask as uint8 0/255 (H, W) from a path or an array; nonzero = keep."""
+    if isinstance(mask, (str, Path)):
+        import cv2
+
+        img = cv2.imread(str(mask), cv2.IMREAD_GRAYSCALE)
+        if img is None:
+            raise ValueError(f"mask {mask} is not a readable image")
+        mask = img
+    m = np.asarray(mask)
+    if m.ndim == 3:
+        m = m.max(axis=2)
+    if m.ndim != 2 or m.size == 0:
+        raise ValueError(f"mask must be a 2-D image, got shape {m.shape}")
+    if shape is not None and m.shape != tuple(shape):
+        raise ValueError(f"mask is {m.shape[1]}x{m.shape[0]} px but frames are {shape[1]}x{shape[0]} px")
+    if not m.any():
+        raise ValueError("mask is empty (all zero): nothing would be tracked")
+    return np.where(m > 0, 255, 0).astype(np.uint8)
+
+
+# ---- detectors: image (uint8 BGR) -> Detections -----------------------------------------------
+
+def _hsv_mask(img):
+    import cv2
+
+    hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
+    (l1, h1), (l2, h2) = HSV_RED
+    return cv2.bitwise_or(cv2.inRange(hsv, l1, h1), cv2.inRange(hsv, l2, h2))
+
+
+def _contour_detections(binary, shape, area_range=None) -> Detections:
+    import cv2
+
+    contours, _ = cv2.findContours(binary, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    h, w = shape
+    xy, area, border = [], [], []
+    for c in contours:
+        m = cv2.moments(c)
+        if m["m00"] <= 0:
+            continue
+        if area_range is not None and not (area_range[0] <= m["m00"] <= area_range[1] * 3):
+            continue
+        x, y, bw, bh = cv2.boundingRect(c)
+        xy.append((m["m10"] / m["m00"], m["m01"] / m["m00"]))
+        area.append(m["m00"])
+        border.append(x <= 0 or y <= 0 or x + bw >= w or y + bh >= h)
+    if not xy:
+        return Detections.empty()
+    return Detections(np.array(xy, float), np.array(area, float), np.array(border, bool))
+
+
+def detect_paper(img, roi_mask=None, **_) -> Detections:
+    """The paper: HSV red mask, 10x10 erosion, findContours, centroid from moments."""
+    import cv2
+
+    m = _hsv_mask(img)
+    if roi_mask is not None:
+        m = cv2.bitwise_and(m, roi_mask)
+    m = cv2.erode(m, np.ones((PAPER_KERNEL, PAPER_KERNEL), np.uint8))
+    return _contour_detections(m, img.shape[:2])
+
+
+def _ellipse(n):
+    import cv2
+
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (n, n))
+
+
+def detect_contour(img, roi_mask=None, area_range=(30.0, 600.0), **_) -> Detections:
+    """HSV red mask, close then open with an odd ellipse, area filter, contour moments."""
+    import cv2
+
+    m = _hsv_mask(img)
+    if roi_mask is not None:
+        m = cv2.bitwise_and(m, roi_mask)
+    k = _ellipse(ODD_KERNEL)
+    m = cv2.morphologyEx(cv2.morphologyEx(m, cv2.MORPH_CLOSE, k), cv2.MORPH_OPEN, k)
+    return _contour_detections(m, img.shape[:2], area_range)
+
+
+def redness(img):
+    """R - max(G, B), saturated at 0 (uint8 H x W): how red a pixel is, independent of brightness of grey/white/purple."""
+    import cv2
+
+    b, g, r = cv2.split(img)
+    return cv2.subtract(r, cv2.max(b, g))
+
+
+def detect_blob(img, roi_mask=None, area_range=(30.0, 600.0), threshold=REDNESS_THRESHOLD, **_) -> Detections:
+    """Redness threshold, 5x5 open, connected components (area, fill and aspect filter), weighted centroids."""
+    import cv2
+
+    red = redness(img)
+    if roi_mask is not None:
+        red = cv2.bitwise_and(red, roi_mask)
+    _, binary = cv2.threshold(red, threshold, 255, cv2.THRESH_BINARY)
+    binary = cv2.morphologyEx(binary, cv2.MORPH_OPEN, _ellipse(ODD_KERNEL))
+    # findContours rather than connectedComponentsWithStats: the same blobs, ~100x faster in OpenCV 5 here
+    contours, _ = cv2.findContours(binary, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    h, w = red.shape
+    xy, area, border = [], [], []
+    lo, hi = area_range
+    for c in contours:
+        x, y, bw, bh = cv2.boundingRect(c)
+        a = cv2.contourArea(c) + 0.5 * cv2.arcLength(c, True)  # ~ pixel count of the blob
+        if a < lo or a > 3 * hi or max(bw, bh) > 3 * min(bw, bh) or a < 0.4 * bw * bh:
+            continue  # specks, wires and streaks; very large blobs are kept only up to 3x (merges)
+        x0, y0 = max(x - 2, 0), max(y - 2, 0)
+        x1, y1 = min(x + bw + 2, w), min(y + bh + 2, h)
+        crop = img[y0:y1, x0:x1].astype(np.float32)
+        wgt = 2 * crop[..., 2] - crop[..., 1] - crop[..., 0] - 2 * threshold  # as the ROI windows
+        if roi_mask is not None:
+            wgt *= roi_mask[y0:y1, x0:x1] > 0
+        np.maximum(wgt, 0, out=wgt)
+        mass = float(wgt.sum())
+        if mass <= 0:
+            continue
+        cx = float(wgt.sum(axis=0) @ np.arange(x0, x1)) / mass
+        cy = float(wgt.sum(axis=1) @ np.arange(y0, y1)) / mass
+        xy.append((cx, cy))
+        area.append(a)
+        border.append(x <= 0 or y <= 0 or x + bw >= w or y + bh >= h)
+    if not xy:
+        return Detections.empty()
+    return Detections(np.array(xy, float), np.array(area, float), np.array(border, bool))
+
+
+DETECTORS = {"paper": detect_paper, "contour": detect_contour, "blob": detect_blob, "roi": detect_blob,
+             "fit": detect_blob}
+
+
+def assign(det_xy, ref_xy, gate) -> np.ndarray:
+    """Whisker -> detection index (-1 if none) minimising the total distance (Hungarian method).
+
+    ref_xy (N, 2) may contain NaN rows (unknown reference: that whisker takes no detection).
+    Pairs farther apart than `gate` are never made.
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    n = len(ref_xy)
+    out = np.full(n, -1, int)
+    if len(det_xy) == 0 or n == 0:
+        return out
+    d = np.hypot(ref_xy[:, None, 0] - det_xy[None, :, 0], ref_xy[:, None, 1] - det_xy[None, :, 1])
+    ok = np.isfinite(d) & (d <= gate)
+    if not ok.any():
+        return out
+    cost = np.where(ok, d, gate * 10.0 + 1e3)
+    rows, cols = linear_sum_assignment(cost)
+    for r, c in zip(rows, cols):
+        if ok[r, c]:
+            out[r] = c
+    return out
+
+
+# ---- the tracker ---------------------------------------------------------------------------------
+
+@dataclass
+class _Baseline:
+    track_xy: np.ndarray   # (N, 2) rest positions in tracking coordinates
+    out_xy: np.ndarray     # (N, 2) rest positions in output (undistorted) coordinates
+    area: np.ndarray       # (N,) blob area at rest, px^2
+    frames: int
+
+
+class Tracker:
+    """Track the N markers of a design in camera frames.
+
+    design: the Design (whisker count, ring, camera, tracking section). method: one of METHODS.
+    calibration: a lens for undistortion: a path to a lens .npz (`whisker calibrate camera`'s or the
+    authors'), a `whisker.vision.lens.Lens`, or a (mtx, dist[, model]) tuple; standard, rational and
+    fisheye models. undistort: "points" (track on the raw frame, undistort the centroids with
+    cv2.undistortPoints: exact and cheap) or "image" (remap every frame first, as the authors' code
+    does). mask: region-of-interest image (path or array), nonzero = track here. k_source: "design"
+    (k = design.mm_per_px) or "ring" (k = ring radius / measured rest radius, after calibrate()).
+    marker_radius_px: the markers' radius in the frame, px, as the blob detectors see it (equivalent
+    radius of the thresholded blob; measured on a rest frame with `whisker.vision.rest_geometry.measure`);
+    default: the design's marker diameter / 2 / mm_per_px. edge_radius_px: the radius of the marker's
+    half-contrast edge (the disc fit's model, where `fit` starts); default: marker_radius_px.
+    """
+
+    def __init__(self, design, method: str = "roi", *, calibration=None, undistort: str = "points",
+                 mask=None, k_source: str = "design", threshold: int = REDNESS_THRESHOLD,
+                 marker_radius_px: float | None = None, edge_radius_px: float | None = None):
+        if method not in METHODS:
+            raise ValueError(f"unknown tracking method {method!r}; choose one of {', '.join(METHODS)}")
+        if undistort not in ("points", "image"):
+            raise ValueError(f"undistort must be 'points' or 'image', got {undistort!r}")
+        if k_source not in ("design", "ring"):
+            raise ValueError(f"k_source must be 'design' or 'ring', got {k_source!r}")
+        if not 1 <= int(threshold) <= 254:
+            raise ValueError(f"threshold must be 1..254 grey levels, got {threshold}")
+        self.design = design
+        self.method = method
+        self.n = design.whiskers.count
+        self.threshold = int(threshold)
+        self.k_source = k_source
+        from whisker.vision.lens import as_lens
+
+        self.lens = as_lens(calibration)   # any lens model (whisker.vision.lens): standard, rational, fisheye
+        self.mtx = None if self.lens is None else geometry.camera_matrix(design, self.lens.mtx)
+        self.dist = None if self.lens is None else self.lens.dist
+        self.undistort = undistort if self.dist is not None else "none"
+        self.mask = None if mask is None else load_mask(mask)
+        self.shape = self.mask.shape if self.mask is not None else (design.camera.height_px, design.camera.width_px)
+        self._maps = None
+        k = design.mm_per_px
+        if marker_radius_px is not None and not (math.isfinite(marker_radius_px) and 1.0 <= marker_radius_px <= 100.0):
+            raise ValueError(f"marker_radius_px must be 1..100 px, got {marker_radius_px}")
+        # the marker's radius in the frame: measured (whisker.vision.rest_geometry) or the design's
+        self.marker_r = design.coil.marker_diameter / 2.0 / k if marker_radius_px is None else float(marker_radius_px)
+        if edge_radius_px is not None and not (math.isfinite(edge_radius_px) and 0.5 <= edge_radius_px <= 100.0):
+            raise ValueError(f"edge_radius_px must be 0.5..100 px, got {edge_radius_px}")
+        self.edge_r = self.marker_r if edge_radius_px is None else float(edge_radius_px)   # disc fit's start
+        a0 = math.pi * self.marker_r ** 2
+        self.area_range = (0.25 * a0, 4.0 * a0)
+        # predicted rest positions in tracking coordinates (distorted unless frames are remapped)
+        xyz = geometry.rest_marker_xyz(design)
+        dist = self.dist if self.undistort == "points" else None
+        self.predicted = geometry.project(design, xyz, mtx=self.mtx, dist=dist,
+                                          model=self.lens.model if self.lens is not None else "standard")
+        if self.n > 1:
+            dd = np.hypot(*(self.predicted[:, None, :] - self.predicted[None, :, :]).transpose(2, 0, 1))
+            self.spacing = float(np.min(dd[~np.eye(self.n, dtype=bool)]))
+        else:
+            self.spacing = float("inf")
+        self.gate = min(design.tracking.marker_search_px, 0.45 * self.spacing)
+        self.half = int(math.ceil(self.marker_r + 5))  # ROI window radius, px
+        self._offs = np.arange(-self.half, self.half + 1, dtype=np.float32)
+        rr = np.hypot(self._offs[:, None], self._offs[None, :])
+        self._disc = (rr <= self.half + 0.5).astype(np.float32)
+        self._rim_b = (rr > self.half - 1.5) & (rr <= self.half + 0.5)
+        self._rim = self._rim_b.astype(np.float32)
+        self._merge_d2 = (2 * self.marker_r) ** 2
+        self._diag = np.eye(self.n, dtype=bool)
+        self._area0 = self._design_area()
+        self._fit_geom = None
+        self.last_fit = (np.zeros(0), np.zeros(0, bool))
+        self.baseline: _Baseline | None = None
+        self._last = np.full((self.n, 2), np.nan)
+
+    # -- coordinates ---------------------------------------------------------------------------
+    def _prepare(self, img):
+        if self.undistort == "image":
+            import cv2
+
+            if self._maps is None:
+                from whisker.vision.lens import undistort_maps
+
+                h, w = img.shape[:2]
+                self._maps = undistort_maps(self.lens, (w, h), self.mtx)
+            if self.mask is not None:
+                img = cv2.bitwise_and(img, img, mask=self.mask)
+            return cv2.remap(img, *self._maps, cv2.INTER_LINEAR), None
+        return img, self.mask
+
+    def to_output(self, xy) -> np.ndarray:
+        """Tracking coordinates -> output pixel coordinates (undistorted when points are undistorted)."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        if self.undistort != "points" or len(xy) == 0:
+            return xy.copy()
+        from whisker.vision.lens import undistort_points
+
+        out = np.full_like(xy, np.nan)
+        ok = np.all(np.isfinite(xy), axis=1)
+        if ok.any():
+            out[ok] = undistort_points(self.lens, xy[ok], P=self.mtx)
+        return out
+
+    @property
+    def k(self) -> float:
+        """mm per pixel used for geometry: the design's, or measured from the rest ring."""
+        if self.k_source == "ring" and self.baseline is not None:
+            b = self.baseline.out_xy
+            r = np.hypot(*(b - b.mean(axis=0)).T)
+            return self.design.whiskers.ring_radius / float(np.mean(r))
+        return self.design.mm_per_px
+
+    # -- frame checks ----------------------------------------------------------------------------
+    def check_frame(self, image) -> str:
+        """'' if `image` can be tracked, else one line saying what is wrong with it."""
+        if image is None:
+            return "frame is None (no image was read)"
+        if not isinstance(image, np.ndarray):
+            return f"frame is a {type(image).__name__}, not a numpy array"
+        if image.size == 0:
+            return f"frame is empty (shape {image.shape})"
+        if image.dtype != np.uint8:
+            return f"frame dtype is {image.dtype}, expected uint8"
+        if image.ndim != 3 or image.shape[2] != 3:
+            return f"frame shape is {image.shape}, expected (H, W, 3) BGR"
+        if self.mask is not None or self.baseline is not None:
+            if image.shape[:2] != tuple(self.shape):
+                return f"frame is {image.shape[1]}x{image.shape[0]} px, expected {self.shape[1]}x{self.shape[0]}"
+        elif min(image.shape[:2]) < 16:
+            return f"frame is only {image.shape[1]}x{image.shape[0]} px"
+        return ""
+
+    def _bad(self, message: str) -> TrackResult:
+        nan = np.full(self.n, np.nan)
+        return TrackResult(np.full((self.n, 2), np.nan), np.zeros(self.n, bool), ["bad-frame"] * self.n,
+                           nan, nan.copy(), self.method, message)
+
+    # -- detection + identity ----------------------------------------------------------------------
+    def detect(self, image) -> Detections:
+        """Full-frame candidates with this tracker's method (the 'roi' method uses 'blob' here)."""
+        img, mask = self._prepare(image)
+        return DETECTORS[self.method](img, roi_mask=mask, area_range=self.area_range, threshold=self.threshold)
+
+    def _identify(self, det: Detections, ref, area_ref):
+        """Assign detections to whiskers; returns raw positions (N,2) and statuses."""
+        pos = np.full((self.n, 2), np.nan)
+        status = ["lost"] * self.n
+        idx = assign(det.xy, ref, self.gate)
+        counts = np.bincount(idx[idx >= 0], minlength=max(len(det.xy), 1))
+        for i, j in enumerate(idx):
+            if j < 0:
+                continue
+            if det.border[j]:
+                status[i] = "border"
+            elif det.area[j] > 1.6 * area_ref[i] or counts[j] > 1:
+                status[i] = "merged"
+            else:
+                pos[i] = det.xy[j]
+                status[i] = "ok"
+        # a whisker with no detection of its own next to an oversized blob that another whisker
+        # took: one blob where two markers should be -> both merged
+        lost = [i for i in range(self.n) if status[i] == "lost" and np.all(np.isfinite(ref[i]))]
+        if lost and len(det.xy):
+            owner = np.full(len(det.xy), -1)
+            owner[idx[idx >= 0]] = np.flatnonzero(idx >= 0)
+            own_area = np.where(owner >= 0, area_ref[np.maximum(owner, 0)], np.nanmedian(area_ref))
+            big = det.area > 1.2 * own_area
+            for i in lost:
+                near = big & (np.hypot(det.xy[:, 0] - ref[i, 0], det.xy[:, 1] - ref[i, 1]) < 2.5 * self.marker_r)
+                for j in np.flatnonzero(near):
+                    status[i] = "merged"
+                    if owner[j] >= 0:
+                        status[owner[j]] = "merged"
+        for i in range(self.n):
+            if status[i] == "merged":
+                pos[i] = np.nan
+        return pos, status
+
+    def _initial_refs(self, det: Detections):
+        """Design prediction, shifted by the ring's median offset (the camera is never exactly centred)."""
+        ref = self.predicted.copy()
+        idx = assign(det.xy, ref, 0.45 * self.spacing)
+        if (idx >= 0).sum() >= max(1, self.n // 2):
+            ref = ref + np.median(det.xy[idx[idx >= 0]] - ref[idx >= 0], axis=0)
+        return ref
+
+    def _design_area(self):
+        return np.full(self.n, math.pi * self.marker_r ** 2 * 1.5)
+
+    # -- calibration ---------------------------------------------------------------------------------
+    def calibrate(self, frames) -> _Baseline:
+        """Rest baseline: per-whisker median position over K rest frames (images or Frame objects).
+
+        Raises CalibrationError (one line) if a whisker is found in fewer than half of the frames.
+        """
+        track, areas, n_frames, shape = [], [], 0, None
+        for f in frames:
+            img = getattr(f, "image", f)
+            msg = self.check_frame(img)
+            if msg:
+                continue
+            shape = img.shape[:2]
+            n_frames += 1
+            det = self.detect(img)
+            pos, status = self._identify(det, self._initial_refs(det), self._design_area())
+            area = np.full(self.n, np.nan)
+            idx = assign(det.xy, pos, 1.0)
+            area[idx >= 0] = det.area[idx[idx >= 0]]
+            track.append(pos)
+            areas.append(area)
+        if n_frames == 0:
+            raise CalibrationError("calibration: no usable rest frame (every frame was empty or malformed)")
+        track = np.array(track)
+        found = np.sum(np.all(np.isfinite(track), axis=2), axis=0)
+        bad = [i for i in range(self.n) if found[i] * 2 < n_frames or found[i] == 0]
+        if bad:
+            raise CalibrationError(
+                f"calibration: whisker(s) {bad} found in fewer than half of the {n_frames} rest frame(s) "
+                f"(found {found.tolist()}); check the light, the mask, the method and tracking.image_up_deg")
+        with np.errstate(all="ignore"):
+            base = np.nanmedian(track, axis=0)
+            area = np.nanmedian(np.array(areas), axis=0)
+        area = np.where(np.isfinite(area), area, self._design_area())
+        self.shape = shape
+        self.baseline = _Baseline(base, self.to_output(base), area, n_frames)
+        self._last = base.copy()
+        return self.baseline
+
+    def reset(self) -> None:
+        """Forget the frame-to-frame state (the next frame is matched against the rest baseline)."""
+        self._last = self.baseline.track_xy.copy() if self.baseline is not None else np.full((self.n, 2), np.nan)
+
+    # -- tracking --------------------------------------------------------------------------------------
+    def _refs(self):
+        ref = self._last.copy()
+        if self.baseline is not None:
+            miss = np.isnan(ref).any(axis=1)
+            if miss.any():
+                ref[miss] = self.baseline.track_xy[miss]
+        return ref
+
+    def _windows(self, img, mask, centre):
+        """Weighted centroid offsets of square windows centred on integer pixels `centre` (S, 2)."""
+        hw = self.half
+        offs = self._offs
+        # slicing is cheaper than fancy indexing for a handful of windows
+        win = np.stack([img[y - hw:y + hw + 1, x - hw:x + hw + 1] for x, y in centre.tolist()])
+        win = win.astype(np.int16)
+        red = 2 * win[..., 2] - win[..., 0] - win[..., 1]   # 2 x (R - (G + B) / 2): less noisy than R - max(G, B)
+        wgt = np.maximum(red - 2 * self.threshold, 0).astype(np.float32)
+        wgt *= self._disc  # a round window: the red wires leaving the coil block stay outside
+        if mask is not None:
+            wgt *= np.stack([mask[y - hw:y + hw + 1, x - hw:x + hw + 1] for x, y in centre.tolist()]) > 0
+        col = wgt.sum(axis=1)   # (S, W): weight per x
+        row = wgt.sum(axis=2)   # (S, W): weight per y
+        m = col.sum(axis=1)
+        safe = np.where(m > 0, m, 1.0)
+        rim = (wgt * self._rim).sum(axis=(1, 2))
+        return (col @ offs) / safe, (row @ offs) / safe, m, rim / safe
+
+    def _refine(self, img, mask, xy, iters: int = 2):
+        """Least-squares fit of a blurred disc to each marker's redness, started at `xy` (M, 2).
+
+        Model per window: b + a * Phi((rho - |p - p0|) / s) (Phi = standard normal CDF: a disc of
+        radius rho with a Gaussian-blurred edge of width s, on a flat background b), parameters
+        p0 = (x0, y0), rho, a, b, s, solved by `iters` Gauss-Newton steps (all markers at once).
+        Unlike a centroid it weighs each pixel by how much it says about the edge, so noise in the
+        flat interior and background does not move it. A marker whose fit fails, moves more than
+        1 px or ends with an implausible radius/contrast keeps its starting (centroid) position.
+        """
+        from scipy.special import ndtr
+
+        h, w = img.shape[:2]
+        hw = self.half
+        c = np.rint(xy).astype(int)
+        ok = (c[:, 0] >= hw) & (c[:, 1] >= hw) & (c[:, 0] < w - hw) & (c[:, 1] < h - hw)
+        if not ok.any():
+            self.last_fit = (np.full(len(xy), np.nan), np.zeros(len(xy), bool))
+            return xy
+        disc = self._disc > 0
+        if self._fit_geom is None:
+            rr = np.hypot(self._offs[:, None], self._offs[None, :])[disc]
+            xs = np.broadcast_to(self._offs[None, :], disc.shape)[disc].astype(np.float64)
+            ys = np.broadcast_to(self._offs[:, None], disc.shape)[disc].astype(np.float64)
+            self._fit_geom = (xs, ys, rr > hw - 1.5, rr < max(self.marker_r - 2.0, 1.0))
+        xs, ys, rim, core = self._fit_geom
+        cs = c[ok]
+        win = np.stack([img[y - hw:y + hw + 1, x - hw:x + hw + 1][disc] for x, y in cs.tolist()]).astype(np.float64)
+        R = win[..., 2] - 0.5 * (win[..., 0] + win[..., 1])
+        if mask is not None:
+            inside = np.stack([mask[y - hw:y + hw + 1, x - hw:x + hw + 1][disc] for x, y in cs.tolist()]) > 0
+            full = inside.all(axis=1)  # a window the mask cuts does not fit the model: keep the centroid
+        else:
+            full = np.ones(len(cs), bool)
+        b = R[:, rim].mean(axis=1)
+        a = R[:, core].mean(axis=1) - b
+        x0 = xy[ok, 0] - cs[:, 0]
+        y0 = xy[ok, 1] - cs[:, 1]
+        rho = np.full(len(cs), self.edge_r)
+        s = np.full(len(cs), 0.9)
+        J = np.empty(R.shape + (6,))
+        try:
+            for _ in range(iters):
+                dx = xs - x0[:, None]
+                dy = ys - y0[:, None]
+                d = np.sqrt(dx * dx + dy * dy) + 1e-9
+                u = (rho[:, None] - d) / s[:, None]
+                Phi = ndtr(u)
+                g = (a / s)[:, None] * np.exp(-0.5 * u * u) * 0.3989422804014327
+                res = R - (b[:, None] + a[:, None] * Phi)
+                J[..., 0] = g * dx / d
+                J[..., 1] = g * dy / d
+                J[..., 2] = g
+                J[..., 3] = Phi
+                J[..., 4] = 1.0
+                J[..., 5] = -g * u
+                Jt = J.transpose(0, 2, 1)
+                step = np.linalg.solve(Jt @ J, Jt @ res[..., None])[..., 0]
+                x0, y0 = x0 + step[:, 0], y0 + step[:, 1]
+                rho, a, b = rho + step[:, 2], a + step[:, 3], b + step[:, 4]
+                s = np.clip(s + step[:, 5], 0.3, 5.0)
+        except np.linalg.LinAlgError:
+            self.last_fit = (np.full(len(xy), np.nan), np.zeros(len(xy), bool))
+            return xy
+        new = np.stack([cs[:, 0] + x0, cs[:, 1] + y0], axis=1)
+        good = (full & np.all(np.isfinite(new), axis=1) & (np.hypot(*(new - xy[ok]).T) < 1.0)
+                & (rho > 0.5 * self.marker_r) & (rho < 2.0 * self.marker_r) & (a > 0))
+        out = xy.copy()
+        sel = np.flatnonzero(ok)[good]
+        out[sel] = new[good]
+        radius = np.full(len(xy), np.nan)
+        radius[sel] = rho[good]
+        accepted = np.zeros(len(xy), bool)
+        accepted[sel] = True
+        self.last_fit = (radius, accepted)   # fitted disc radius (px) and which markers took the fit
+        return out
+
+    def _roi(self, img, mask, ref):
+        """Windowed weighted centroids around `ref` (N,2). Returns positions, ok flags, masses."""
+        h, w = img.shape[:2]
+        hw = self.half
+        centre = np.rint(ref).astype(int)  # callers pass finite refs
+        inside = (centre[:, 0] >= hw) & (centre[:, 1] >= hw) & (centre[:, 0] < w - hw) & (centre[:, 1] < h - hw)
+        pos = np.full((self.n, 2), np.nan)
+        mass = np.zeros(self.n)
+        rim = np.ones(self.n)
+        sel = np.flatnonzero(inside)
+        for _ in range(2):  # a second pass re-centres the windows of markers near the window's edge
+            if sel.size == 0:
+                break
+            ex, ey, m, r = self._windows(img, mask, centre[sel])
+            pos[sel, 0] = centre[sel, 0] + ex
+            pos[sel, 1] = centre[sel, 1] + ey
+            mass[sel] = m
+            rim[sel] = r
+            # Re-centre only if the marker may be cut by the window: weight on the rim, or a shift
+            # of more than 1.5 px (the window has 5 px of margin around the marker). Otherwise the
+            # background weight is zero, the whole marker is inside and the centroid does not
+            # depend on where the window sits.
+            moved = (m > 0) & ((r > 1e-3) | (ex * ex + ey * ey > 2.25))
+            if not moved.any():
+                break
+            new = np.rint(pos[sel[moved]]).astype(int)
+            fits = (new[:, 0] >= hw) & (new[:, 1] >= hw) & (new[:, 0] < w - hw) & (new[:, 1] < h - hw)
+            sel = sel[moved][fits]
+            centre[sel] = new[fits]
+        ok = inside & (mass > 0) & (rim < 0.02)
+        return pos, ok, mass
+
+    def track(self, image) -> TrackResult:
+        """Positions, validity and displacements of every marker in one frame. Never raises on bad frames."""
+        msg = self.check_frame(image)
+        if msg:
+            return self._bad(msg)
+        img, mask = self._prepare(image)
+        ref = self._refs()
+        area_ref = self.baseline.area if self.baseline is not None else self._area0
+        pos = np.full((self.n, 2), np.nan)
+        status = ["lost"] * self.n
+        ndet = 0
+        if self.method in ("roi", "fit") and not np.isnan(ref).any():
+            rpos, rok, mass = self._roi(img, mask, ref)
+            # a marker of normal size has mass ~ area * (contrast - threshold); compare to the others
+            good = sorted(mass[rok].tolist())
+            if len(good) >= 2:
+                med = good[len(good) // 2]
+                rok &= (mass > 0.3 * med) & (mass < 1.7 * med)
+            pos[rok] = rpos[rok]
+            status = ["ok" if f else "lost" for f in rok.tolist()]
+            # two whiskers on one spot: both merged
+            diff = pos[:, None, :] - pos[None, :, :]
+            close = (diff[..., 0] ** 2 + diff[..., 1] ** 2) < self._merge_d2
+            close[self._diag] = False
+            if close.any():
+                for i in np.flatnonzero(close.any(axis=1)):
+                    status[i] = "merged"
+                    pos[i] = np.nan
+            need = [i for i in range(self.n) if status[i] != "ok"]
+            if need:
+                det = DETECTORS["blob"](img, roi_mask=mask, area_range=self.area_range, threshold=self.threshold)
+                ndet = len(det.xy)
+                sub_ref = ref.copy()
+                sub_ref[[i for i in range(self.n) if i not in need]] = np.nan
+                # detections already explained by a tracked marker are not available
+                if len(det.xy):
+                    taken = np.zeros(len(det.xy), bool)
+                    for i in range(self.n):
+                        if status[i] == "ok":
+                            taken |= np.hypot(*(det.xy - pos[i]).T) < 2 * self.marker_r
+                    keep = ~taken
+                    det = Detections(det.xy[keep], det.area[keep], det.border[keep])
+                p2, s2 = self._identify(det, sub_ref, area_ref)
+                for i in need:
+                    if status[i] == "merged" and s2[i] == "lost":
+                        continue
+                    pos[i], status[i] = p2[i], s2[i]
+        else:
+            det = DETECTORS[self.method](img, roi_mask=mask, area_range=self.area_range, threshold=self.threshold)
+            ndet = len(det.xy)
+            if not np.all(np.isfinite(ref)):
+                ref = np.where(np.isfinite(ref), ref, self._initial_refs(det))
+            pos, status = self._identify(det, ref, area_ref)
+        valid = np.array([s == "ok" for s in status]) & ~np.isnan(pos).any(axis=1)
+        refused = 0
+        if self.method == "fit" and valid.any():
+            pos[valid] = self._refine(img, mask, pos[valid])
+            refused = int(np.sum(~self.last_fit[1]))
+        self._last[valid] = pos[valid]
+        out = self.to_output(pos)
+        out[~valid] = np.nan
+        if self.baseline is not None:
+            d = out - self.baseline.out_xy
+            dx, dy = d[:, 0], d[:, 1]
+        else:
+            dx = dy = np.full(self.n, np.nan)
+        track_px = pos.copy()
+        track_px[~valid] = np.nan
+        return TrackResult(out, valid, status, dx, dy, self.method, "", ndet, track_px, refused)
+
+    def deflection(self, result: TrackResult, model: str = "paper"):
+        """Geometry of a TrackResult: `whisker.vision.geometry.deflection` with this tracker's k."""
+        return geometry.deflection(self.design, result.dx_px, result.dy_px, model=model,
+                                   whisker=np.arange(self.n), k=self.k, mtx=self.mtx)
