@@ -80,10 +80,18 @@ def train(design, data, objects, hidden, epochs, lr, batch_size, protocol, seed,
     """Train the classifier and save it with the library versions it was trained with."""
     import numpy as np
 
+    from whisker.cliutil import check_out_path, exclusive_out
+
+    check_out_path(out, "classify train")
+    if report:
+        check_out_path(report, "classify train", folder=True)
+
     from whisker.data import classify as C
     from whisker.data.dataset import DatasetError, augment_rotations
     from whisker.files import atomic_write_json, atomic_write_text
 
+    lock = exclusive_out(out, "classify train")
+    lock.__enter__()
     ds = _load(data, objects, design)
     params = dict(hidden=hidden, epochs=epochs, lr=lr, batch_size=batch_size, scale=ds.meta.get("scale") or C.PEER_SCALE)
     try:
@@ -119,7 +127,12 @@ def train(design, data, objects, hidden, epochs, lr, batch_size, protocol, seed,
                                                               "classes": list(ds.classes), "confusion": cm.tolist()})
             C.plot_confusion(cm, ds.classes, Path(report) / "confusion.png",
                              f"{protocol}, seed {seed}: accuracy {acc:.3f}")
-    C.save_model(out, model, ds, info)
+    try:
+        C.save_model(out, model, ds, info)
+    except OSError as err:
+        fail(f"classify train: cannot write the model {out}: {err.strerror or err}", code=1)
+    finally:
+        lock.__exit__(None, None, None)
     click.echo(f"model -> {out}")
 
 

@@ -77,6 +77,9 @@ def cli(scene_file, explain, out, overrides, scene_sets, attempts, trials, as_js
     from whisker.sim.runner import run_scene
 
     out = Path(out) if out else Path("runs") / _slug(scene.scene.name)
+    from whisker.cliutil import check_out_path
+
+    check_out_path(out, "sim", folder=True)
     steps = steps_of(scene) if p.solver != "static" else 0
     if steps >= LONG_RUN_STEPS and scene.experiment.kind == "none":
         click.echo(f"long run: {steps:,} time steps of {scene.scene.timestep:g} s ({p.solver} solver); "
@@ -94,11 +97,17 @@ def cli(scene_file, explain, out, overrides, scene_sets, attempts, trials, as_js
         bar.n = int(1000 * min(max(frac, 0.0), 1.0))
         bar.refresh()
     t0 = time.perf_counter()
+    from whisker.cliutil import exclusive_out
+
     try:
-        summary = run_scene(scene, design, p, out, progress=progress)
+        with exclusive_out(out, "sim"):
+            summary = run_scene(scene, design, p, out, progress=progress)
     except (SceneError, SimulationError, MissingModule, ValueError) as err:
         bar.close()
         fail(f"simulation failed: {err}", 1)
+    except OSError as err:
+        bar.close()
+        fail(f"sim: cannot write the run folder {out}/: {err.strerror or err}", 1)
     bar.n = 1000
     bar.close()
     click.echo(summary.get("headline", f"done in {time.perf_counter() - t0:.2f} s"))
