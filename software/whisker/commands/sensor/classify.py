@@ -198,6 +198,7 @@ def evaluate(design, data, objects, hidden, epochs, lr, batch_size, model_file, 
 
 
 @cli.command()
+@design_options
 @click.option("--model", "model_file", type=click.Path(dir_okay=False), required=True, help="Saved model (.joblib).")
 @click.option("--input", "input_file", type=click.Path(dir_okay=False), required=True,
               help="A CSV of samples (one per row, the authors' layout) or, with --tracks, a tracks CSV "
@@ -206,8 +207,9 @@ def evaluate(design, data, objects, hidden, epochs, lr, batch_size, model_file, 
 @click.option("--invalid", type=click.Choice(["error", "zero", "drop"]), default="error", show_default=True,
               help="Tracks only: whiskers the tracker lost: refuse, impute rest (0, 0), or drop the sample.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON lines instead of a table.")
-def predict(model_file, input_file, tracks, invalid, as_json):
-    """Predict the object for each sample; prints label and probability per sample."""
+def predict(design, model_file, input_file, tracks, invalid, as_json):
+    """Predict the object for each sample; prints a header, label and probability per sample, and the
+    count per predicted class. The model must have been trained for the design's whisker count."""
     import numpy as np
 
     from whisker.data import classify as C
@@ -215,6 +217,9 @@ def predict(model_file, input_file, tracks, invalid, as_json):
 
     try:
         bundle = C.load_model(model_file)
+        if bundle["n_whiskers"] != design.whiskers.count:
+            raise DatasetError(f"{model_file} was trained for {bundle['n_whiskers']} whiskers, the design has "
+                               f"{design.whiskers.count}; give the matching --design/--set")
         if tracks:
             ds = load_tracks(input_file, "unknown", records_per_sample=bundle["n_records"], invalid=invalid)
             if ds.n_whiskers != bundle["n_whiskers"]:
@@ -225,9 +230,15 @@ def predict(model_file, input_file, tracks, invalid, as_json):
         labels, proba = C.predict(bundle, X, valid)
     except (DatasetError, OSError) as err:
         fail(f"prediction refused: {err}")
+    from collections import Counter
+
+    if not as_json:
+        click.echo("sample\tlabel\tprobability")
     for i, (lab, p) in enumerate(zip(labels, proba)):
         conf = float(np.max(p))
         if as_json:
             click.echo(json.dumps({"sample": i, "label": str(lab), "probability": round(conf, 4)}))
         else:
             click.echo(f"{i}\t{lab}\t{conf:.3f}")
+    counts = Counter(str(x) for x in labels)
+    click.echo(f"{len(labels)} sample(s): " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())), err=True)

@@ -33,8 +33,6 @@ def open_live_source(source: str, design, fps: float, max_frames):
 @click.option("--fps", type=click.FloatRange(1, 240), default=15.0, show_default=True, help="Frame rate of --source sim.")
 @click.option("--estimator", "method", type=click.Choice(["authors", "adaptive"]), default="adaptive",
               show_default=True, help="State estimator (docs/states.md).")
-@click.option("--method", "method_old", type=click.Choice(["authors", "adaptive"]), default=None, hidden=True,
-              help="Deprecated spelling of --estimator.")
 @click.option("--tracker", "track_method", type=click.Choice(["paper", "contour", "blob", "roi", "fit"]), default="roi",
               show_default=True, help="Marker tracking method (docs/tracking.md).")
 @click.option("--rest-frames", type=click.IntRange(1, 1000), default=5, show_default=True,
@@ -46,7 +44,7 @@ def open_live_source(source: str, design, fps: float, max_frames):
 @click.option("--calibration", type=click.Path(dir_okay=False), default=None, help="Lens calibration .npz.")
 @click.option("--mask", type=click.Path(dir_okay=False), default=None, help="Region-of-interest image.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary on stderr.")
-def cli(design, source, fps, method, method_old, track_method, rest_frames, record, show, max_frames, calibration, mask, quiet):
+def cli(design, source, fps, method, track_method, rest_frames, record, show, max_frames, calibration, mask, quiet):
     """Track the markers and label every whisker rest / contact / dynamic, live.
 
     Writes one JSON line per frame on stdout ({"frame", "t", "states", "dx", "dy", "valid", "force_mN",
@@ -58,7 +56,6 @@ def cli(design, source, fps, method, method_old, track_method, rest_frames, reco
 
     import numpy as np
 
-    method = method_old or method
 
     from whisker.vision.camera import SourceError
     from whisker.sensing.contact_force import ForceModel

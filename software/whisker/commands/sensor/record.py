@@ -34,8 +34,6 @@ LONG_RECORDING_S = 60.0
               help="Stop after this many seconds (at most a day).")
 @click.option("--tracker", "method", type=click.Choice(["paper", "contour", "blob", "roi"]), default="roi",
               show_default=True, help="Marker tracking method (see whisker track --help).")
-@click.option("--method", "method_old", type=click.Choice(["paper", "contour", "blob", "roi"]), default=None,
-              hidden=True, help="Deprecated spelling of --tracker.")
 @click.option("--model", type=click.Choice(["paper", "exact"]), default="paper", show_default=True,
               help="Deflection geometry for the tracks table.")
 @click.option("--rest-frames", type=click.IntRange(1, 1000), default=5, show_default=True,
@@ -60,7 +58,7 @@ LONG_RECORDING_S = 60.0
                    "power cut may lose the last seconds; ~3-10x cheaper per frame (benchmarks/results/actuation.md).")
 @click.option("--trial", default=None, help="Free text stored in metadata.json (object, trial number ...).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or summary.")
-def cli(design, source, fps, out_dir, max_frames, duration, method, method_old, model, rest_frames, no_track, backend, which,
+def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_frames, no_track, backend, which,
         sequence_file, start,
         level, volts, policy, release_level, hold_level, release_s, hold_s, retract_s, tail_s, image_format,
         no_fsync, trial, quiet):
@@ -81,7 +79,6 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, method_old, 
 
     from tqdm import tqdm
 
-    method = method_old or method
 
     from whisker.drive.actuation import deenergise_on_signals, open_actuator
     from whisker.drive.sequences import SequenceRunner, ThreadedSequenceRunner

@@ -32,8 +32,6 @@ def _num(v: float) -> str:
               show_default=True,
               help="State estimator: authors = their FFT/peak-valley window method, exactly; adaptive = noise-learned, "
                    "hysteresis, every frame judged (docs/states.md).")
-@click.option("--method", "method_old", type=click.Choice(["authors", "adaptive"]), default=None, hidden=True,
-              help="Deprecated spelling of --estimator.")
 @click.option("--window", type=click.IntRange(4, 10000), default=30, show_default=True,
               help="authors' method: frames per window (their offline default 30; 15 on their Pi).")
 @click.option("--out", "out_csv", type=click.Path(dir_okay=False), default=None,
@@ -41,7 +39,7 @@ def _num(v: float) -> str:
 @click.option("--json/--no-json", "as_json", default=True, show_default=True,
               help="One JSON line per frame on stdout.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary on stderr.")
-def cli(design, tracks, method, method_old, window, out_csv, as_json, quiet):
+def cli(design, tracks, method, window, out_csv, as_json, quiet):
     """Run a state estimator on TRACKS: a `whisker track` / `whisker record` CSV (or session
     folder), or the authors' airflow file (Time,dx,dy), for the design's whiskers. Prints one JSON
     line per frame and a summary (frames per state and whisker) on stderr. Refuses (exit 2) a file
@@ -53,7 +51,6 @@ def cli(design, tracks, method, method_old, window, out_csv, as_json, quiet):
     from whisker.sensing.states import STATE_NAMES, StateInputError, StatesUndecided, label_recording
     from whisker.vision.trackfile import TracksError, read_tracks
 
-    method = method_old or method
     if out_csv:
         check_out_path(out_csv, "states")
     n = design.whiskers.count
