@@ -74,3 +74,25 @@ def test_a_second_writer_to_one_out_is_refused(tmp_path, argv, out_kind):
     assert res.exit_code == 1, res.output
     lines = [x for x in res.output.splitlines() if "being written by another run" in x]
     assert len(lines) == 1 and str(out) in lines[0], res.output
+
+
+def test_design_show_prints_units():
+    from conftest import run_cli
+
+    res = run_cli("design", "show")
+    assert res.returncode == 0, res.stderr
+    line = {ln.split("=")[0].strip(): ln for ln in res.stdout.splitlines() if "=" in ln and not ln.startswith("#")}
+    for key, unit in (("ring_radius", "# mm;"), ("remanence", "# T;"), ("voltage", "# V;"),
+                      ("resistance", "# ohm"), ("convection_coefficient", "# W/(m^2 K);"),
+                      ("rotational_stiffness", "# N*mm/rad;"), ("max_deflection_deg", "# deg;")):
+        assert unit in line[key], line[key]
+
+
+def test_actuate_on_the_simulator_prints_the_tilt():
+    from conftest import run_cli
+
+    res = run_cli("actuate", "--backend", "sim", "retract", "--duration", "0.6")
+    assert res.returncode == 0, res.stderr
+    line = next(ln for ln in res.stderr.splitlines() if ln.startswith("simulated tilt"))
+    peak = [float(x) for x in line.split("largest reached: [")[1].rstrip("]").split(",")]
+    assert len(peak) == 8 and all(5.0 < p < 20.0 for p in peak), line      # retracted, within the stop

@@ -234,3 +234,16 @@ def test_live_is_not_silent_when_it_decides_nothing():
     assert res.returncode != 0 and "fewer than the 1000 --rest-frames" in res.stderr
     res = run_cli("live", "--source", "synthetic:12", "-q")
     assert res.returncode != 0 and "could decide" in res.stderr
+
+
+def test_live_on_the_simulator_sees_a_scheduled_contact():
+    """`live --source sim --contact`: an object pushing whisker 2 from 1.6 s to 2.6 s is labelled a
+    contact on that whisker only; without a stimulus the command says nothing touches the whiskers."""
+    res = run_cli("live", "--source", "sim", "--contact", "2:1.6-2.6:6", "--max-frames", "50", "-q")
+    assert res.returncode == 0, res.stderr
+    recs = [json.loads(x) for x in res.stdout.splitlines()]
+    w2 = [r["states"][2] for r in recs if 1.9 <= r["t"] <= 2.5]
+    assert w2 and w2.count("contact") >= 0.6 * len(w2), w2
+    assert all(s == "rest" for r in recs for i, s in enumerate(r["states"]) if i != 2)
+    bad = run_cli("live", "--source", "sim", "--contact", "9:1-2:5", "--max-frames", "2")
+    assert bad.returncode == 2 and "whiskers 0-7" in bad.stderr
