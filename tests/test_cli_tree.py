@@ -96,3 +96,33 @@ def test_actuate_on_the_simulator_prints_the_tilt():
     line = next(ln for ln in res.stderr.splitlines() if ln.startswith("simulated tilt"))
     peak = [float(x) for x in line.split("largest reached: [")[1].rstrip("]").split(",")]
     assert len(peak) == 8 and all(5.0 < p < 20.0 for p in peak), line      # retracted, within the stop
+
+
+def test_explore_plot_labels_every_design_even_when_two_coincide():
+    """Two designs on one point (same coil power, same success) were drawn as one unlabelled point:
+    now the point says it holds both."""
+    import io
+
+    from PIL import Image
+
+    from whisker.explore import report
+
+    rows = [{"point": i, "status": "ok", "design_digest": f"d{i}", "whiskers.count": n, "coil_power_W": 1.53,
+             "grasp_all_pct": 40.0, "grasp_all_lo": 30.0, "grasp_all_hi": 50.0} for i, n in enumerate((6, 8))]
+    texts = []
+    import matplotlib.axes
+
+    orig = matplotlib.axes.Axes.annotate
+
+    def spy(self, text, *a, **kw):
+        texts.append(text)
+        return orig(self, text, *a, **kw)
+
+    matplotlib.axes.Axes.annotate = spy
+    try:
+        png = report.plot_front(rows, report.pareto(rows, "coil_power_W"), "coil_power_W", "coil power (W)",
+                                ["whiskers.count"])
+    finally:
+        matplotlib.axes.Axes.annotate = orig
+    assert any("2 designs" in t and "count=6" in t and "count=8" in t for t in texts), texts
+    assert Image.open(io.BytesIO(png)).size[0] > 500
