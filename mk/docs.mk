@@ -60,6 +60,9 @@ docs-tracking: $(BIN)/.installed
 	$(BIN)/python benchmarks/bench_tracking.py --docs-image docs/images/tracking_synthetic.png --image-only
 	$(STAMP) --command "python benchmarks/bench_tracking.py --docs-image docs/images/tracking_synthetic.png --image-only" \
 		docs/images/tracking_synthetic.png
+	WHISKER_PEER_DATA=$(PEER_DATA) $(BIN)/python benchmarks/bench_tracking.py --real-table docs/tracking_real.md --image-only
+	$(STAMP) --command "python benchmarks/bench_tracking.py --real-table docs/tracking_real.md --image-only" \
+		docs/tracking_real.md
 
 docs-sweep: $(BIN)/.installed
 	$(BIN)/whisker cad sweep --radii 4..25:3 --out $(DOCS_RUNS)/sweep
