@@ -399,7 +399,9 @@ def write_report(path: Path, outcomes: list[Outcome], table) -> None:
     slow = sorted(outcomes, key=lambda o: -o.seconds)[:5]
     lines = [f"# CLI walk: {len(outcomes)} of {sum(map(len, table.values()))} hostile invocations "
              f"({'full' if FULL else f'{COMMAND_S:g} s per command'}; limit {TIME_LIMIT_S:g} s each)", "",
-             "Written by `make fuzz` (tests/test_cli_walk.py).", "",
+             "Written by tests/test_cli_walk.py: " + ("`make fuzz` (every case)." if FULL else
+                 f"a reduced budget of {COMMAND_S:g} s of cases per command, garbage first (`make docs-fuzz`; "
+                 "`make fuzz` runs every case)."), "",
              f"exit status: " + ", ".join(f"{k}: {v}" for k, v in sorted(codes.items(), key=str)),
              f"problems: {sum(bool(o.problems) for o in outcomes)}", "",
              "| command | invocations | of | problems |", "|---|---|---|---|"]
