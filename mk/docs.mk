@@ -10,7 +10,8 @@ DOCS_RUNS ?= $(OUT)/docs
 STAMP = $(BIN)/python -m whisker.data.provenance stamp
 DOCS_GROUPS = docs-states docs-sim-time docs-stiffness docs-lens docs-sim-figures docs-tracking docs-sweep \
 	docs-fuzz docs-bench
-# the benchmarks `make docs` re-runs (bench_print needs PrusaSlicer; bench_classify the authors' data)
+# the benchmarks `make docs` re-runs (bench_print needs PrusaSlicer; bench_classify the authors' data);
+# bench_states runs in docs-states. Each stamps the files it wrote (newer than the run's start).
 DOCS_BENCH ?= actuation bom coil magnetics tracking cad explore sim compliant grip classify print
 
 .PHONY: docs docs-check $(DOCS_GROUPS)
@@ -80,7 +81,11 @@ docs-fuzz: $(BIN)/.installed
 		benchmarks/results/fuzz_walk.md benchmarks/results/fuzz_walk.png
 
 docs-bench: $(BIN)/.installed
-	@for b in $(DOCS_BENCH); do echo "== bench_$$b"; \
-	  SIM_BENCH_QUICK=1 COMPLIANT_ATTEMPTS=20 SENS_ATTEMPTS=5 WHISKER_BENCH_QUICK=1 $(BIN)/python benchmarks/bench_$$b.py \
-	    && $(STAMP) --command "python benchmarks/bench_$$b.py" --reduced "WHISKER_BENCH_QUICK=1 where the benchmark has a quick setting" \
-	       $$(git ls-files "benchmarks/results/$$b*" "benchmarks/results/$$b.*") || exit 1; done
+	mkdir -p $(DOCS_RUNS)
+	@for b in $(DOCS_BENCH); do echo "== bench_$$b"; touch $(DOCS_RUNS)/.bench-start; \
+	  case $$b in sim) red="SIM_BENCH_QUICK=1 (make sim-bench: the full grid)";; \
+	    compliant) red="COMPLIANT_ATTEMPTS=20 SENS_ATTEMPTS=5 (make sim-sensitivity: 100 and 20)";; *) red="";; esac; \
+	  SIM_BENCH_QUICK=1 COMPLIANT_ATTEMPTS=20 SENS_ATTEMPTS=5 WHISKER_PEER_DATA=$(PEER_DATA) \
+	    $(BIN)/python benchmarks/bench_$$b.py || exit 1; \
+	  files=$$(find benchmarks/results docs/images -newer $(DOCS_RUNS)/.bench-start -type f ! -name '.*'); \
+	  $(STAMP) --command "python benchmarks/bench_$$b.py" $${red:+--reduced "$$red"} $$files || exit 1; done
