@@ -64,3 +64,22 @@ def test_guard_events_are_recorded_and_printed(tmp_path, monkeypatch):
     data = fig8_data([s])
     assert data.shades and all(a <= b for a, b, _ in data.shades)
     assert np.isfinite(data.mean).mean() > 0.95          # shaded, not blanked
+
+
+def test_recplot_names_empty_and_non_finite_frame_tables(tmp_path):
+    """An empty frames.csv and NaN frame times are refused with their cause (not "min() arg is an
+    empty sequence" or "give a larger --dt")."""
+    from conftest import run_cli
+    from test_recording_plot import make_trial
+    from whisker.design import default_design
+
+    for name, edit in (("empty", lambda rows: rows[:1]),
+                       ("nan", lambda rows: rows[:5] + [",".join(["5", "nan"] + rows[5].split(",")[2:])] + rows[6:])):
+        folder = tmp_path / name
+        make_trial(folder, default_design(), offset_s=0.2, amplitude=2.0)
+        rows = (folder / "frames.csv").read_text().splitlines()
+        (folder / "frames.csv").write_text("\n".join(edit(rows)) + "\n")
+        res = run_cli("recplot", str(folder), "--out", str(tmp_path / f"{name}.png"))
+        assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1, res.stderr
+        assert ("no frames" if name == "empty" else "frame times that are not finite") in res.stderr, res.stderr
+        assert "larger --dt" not in res.stderr and "min() arg" not in res.stderr
