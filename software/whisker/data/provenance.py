@@ -46,6 +46,7 @@ def model_numbers(design) -> dict:
     """The model numbers the docs' figures and tables depend on, for `design` (units in the names)."""
     from whisker.coil.driver import series_resistance_ohm
     from whisker.drive.guard import ThermalGuard, full_scale_voltage
+    from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
 
     guard = ThermalGuard(design)
     return {
@@ -55,7 +56,7 @@ def model_numbers(design) -> dict:
         "coil_resistance_ohm": round(float(design.coil.resistance), 4),
         "series_resistance_ohm": round(float(series_resistance_ohm(design)), 4),
         "full_scale_V": round(float(full_scale_voltage(design)), 4),
-        "rotational_stiffness_Nmm_per_rad": design.mechanics.rotational_stiffness,
+        "rotational_stiffness_Nmm_per_rad": round(design_stiffness_Nmm_per_rad(design), 4),   # "auto" resolved
         "guard_derate_from_C": round(float(guard.derate_from_C), 3),
         "guard_cut_C": round(float(guard.cut_C), 3),
         "mm_per_px": round(float(design.mm_per_px), 6),
