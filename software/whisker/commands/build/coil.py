@@ -283,7 +283,7 @@ def driver(design, volts, amps, series):
               help="Also Sobol' indices with this base sample (runs = base x (factors + 2)); 0 = none.")
 @click.option("--tolerances", type=click.Path(dir_okay=False), default=None,
               help="Tolerance table (default hw/tolerances.csv): name, level, kind, min, max, unit, applies_to, source.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True, help="Random seed of the sampled builds.")
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Write tolerance.json there (atomically: a refused run leaves the old one).")
 @_guard

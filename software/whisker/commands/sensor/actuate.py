@@ -146,6 +146,8 @@ def cli(design, action, values, backend, which, start, level, volts, policy, dur
                         next_report += 1.0
                     time.sleep(min(0.05, max(0.0, duration - t)))
                 tilt = sim_tilt_deg(act)
+                if tilt is not None:
+                    peak = np.where(np.abs(tilt) > np.abs(peak), tilt, peak)
                 act.neutral()
                 if show_pins:
                     print_pins(act)
