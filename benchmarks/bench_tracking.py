@@ -222,6 +222,62 @@ def plot(rows):
     plt.close(fig)
 
 
+def docs_image(path: str) -> None:
+    """docs/images/tracking_synthetic.png: one synthetic frame (whisker.vision.camera.SyntheticSource,
+    every whisker swinging) tracked by the default roi tracker, drawn with every whisker labelled."""
+    import cv2
+
+    from whisker.files import atomic_write_bytes
+    from whisker.vision.annotate import annotate
+    from whisker.vision.camera import SyntheticSource
+    from whisker.vision.tracking import Tracker
+
+    d = default_design()
+    frames = list(SyntheticSource(d, 25))
+    trk = Tracker(d, "roi")
+    trk.calibrate(frames[:5])
+    res = trk.track(frames[20].image)
+    img = annotate(frames[20].image, res, trk.baseline.track_xy)
+    ok, buf = cv2.imencode(".png", img)
+    atomic_write_bytes(path, buf.tobytes())
+    print(f"wrote {path}: synthetic frame 20, tracker roi, {int(np.sum(res.valid))} of {d.whiskers.count} valid")
+
+
+def real_table(path: str) -> None:
+    """docs/tracking_real.md: the authors' org.jpg / actuated.jpg tracked (roi, point undistortion):
+    each coil base's outward and sideways marker travel (px) and the retraction tilt by the paper's
+    equations and the exact model (deg). Needs WHISKER_PEER_DATA."""
+    import cv2
+
+    from whisker.files import atomic_write_text
+    from whisker.vision.tracking import Tracker
+
+    img = Path(os.environ["WHISKER_PEER_DATA"]) / "img"
+    org, act = cv2.imread(str(img / "org.jpg")), cv2.imread(str(img / "actuated.jpg"))
+    d = default_design()
+    t = Tracker(d, "roi", calibration=img / "calibration_data.npz", mask=img / "polygonMask.png", undistort="points")
+    t.calibrate([org])
+    base = t.baseline.out_xy
+    centre = base.mean(axis=0)
+    r = t.track(act)
+    rad0 = np.hypot(*(base - centre).T)
+    radial = ((r.positions_px - centre) * (base - centre)).sum(axis=1) / rad0 - rad0
+    side = (r.dx_px * -(base - centre)[:, 1] + r.dy_px * (base - centre)[:, 0]) / rad0
+    paper, exact = t.deflection(r, model="paper").theta_deg, t.deflection(r, model="exact").theta_deg
+    rows = ["# The authors' real frames, tracked (generated: `python benchmarks/bench_tracking.py --real-table "
+            "docs/tracking_real.md --image-only`, needs WHISKER_PEER_DATA)", "",
+            "org.jpg (rest) and actuated.jpg (every coil driven), tracker roi with point undistortion "
+            "(calibration_data.npz, polygonMask.png), default design.", "",
+            f"- outward marker travel: {radial.min():.1f}-{radial.max():.1f} px (mean {radial.mean():.1f} px); "
+            f"sideways at most {np.abs(side).max():.1f} px",
+            f"- retraction tilt: {paper.min():.1f}-{paper.max():.1f} deg by the paper's equations, "
+            f"{exact.min():.1f}-{exact.max():.1f} deg by the exact model", "",
+            "| whisker | outward px | sideways px | tilt deg (paper) | tilt deg (exact) |", "|---|---|---|---|---|"]
+    rows += [f"| {i} | {radial[i]:.2f} | {side[i]:.2f} | {paper[i]:.2f} | {exact[i]:.2f} |" for i in range(len(radial))]
+    atomic_write_text(path, "\n".join(rows) + "\n")
+    print(f"wrote {path}")
+
+
 def main():
     rows = []
     seed = 1000
@@ -323,4 +379,9 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    if "--docs-image" in sys.argv:
+        docs_image(sys.argv[sys.argv.index("--docs-image") + 1])
+    if "--real-table" in sys.argv:
+        real_table(sys.argv[sys.argv.index("--real-table") + 1])
+    if "--image-only" not in sys.argv:
+        main()

@@ -2,9 +2,10 @@
 #   make bom                      hw/bom.csv for the default design (kept in git, a test checks it)
 #   make pcb                      pin map, pinout, wiring diagram, SKiDL netlist + ERC into hw/pcb/generated/,
 #                                 and the driver HAT into hw/pcb/generated/hat/ (make hat alone)
-#   make bom WHISKERS=6 BOM_OUT=/tmp/bom6.csv     another design, somewhere else
-BOM_OUT ?= hw/bom.csv
-PCB_OUT ?= hw/pcb/generated
+#   make bom WHISKERS=6           another design: into $(OUT)/bom.csv, never over the tracked hw/bom.csv
+#   make bom WHISKERS=6 BOM_OUT=/tmp/bom6.csv     somewhere else
+BOM_OUT ?= $(if $(strip $(DESIGN_ARGS)),$(OUT)/bom.csv,hw/bom.csv)
+PCB_OUT ?= $(if $(strip $(DESIGN_ARGS)),$(OUT)/pcb,hw/pcb/generated)
 
 .PHONY: bom pcb
 

@@ -10,11 +10,11 @@ ASSEMBLY_IMAGES ?= docs/images/assembly
 
 check-print: $(BIN)/.installed system-deps ## slice every printable part headless: time, grams, supports -> exports/print_report.md
 	$(BIN)/whisker cad build $(DESIGN_ARGS) --out $(OUT) -q
-	$(BIN)/whisker print check $(DESIGN_ARGS) --out $(OUT)
+	$(BIN)/whisker print check $(DESIGN_ARGS) --build $(OUT)
 
 preview: $(BIN)/.installed ## PNG images of each printable part and the assembly (into $(PREVIEW))
 	$(BIN)/whisker cad build $(DESIGN_ARGS) --out $(OUT) -q
-	$(BIN)/whisker print preview $(DESIGN_ARGS) --out $(OUT) --images $(PREVIEW)
+	$(BIN)/whisker print preview $(DESIGN_ARGS) --build $(OUT) --images $(PREVIEW)
 
 assembly-images: $(BIN)/.installed ## PNG per assembly step, exploded along its path (into $(ASSEMBLY_IMAGES)), the table in docs/assembly.md
 	$(BIN)/whisker cad assembly-images $(DESIGN_ARGS) --out $(ASSEMBLY_IMAGES) --page docs/assembly.md

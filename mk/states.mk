@@ -9,12 +9,12 @@ STATES_METHOD ?= adaptive
 
 states: $(BIN)/.installed ## label a tracks CSV (CSV=...) rest/contact/dynamic -> exports/states/states.csv
 	@test -n "$(CSV)" || { echo "set CSV to a tracks CSV (whisker track/record output or Time,dx,dy)"; exit 2; }
-	$(BIN)/whisker states $(CSV) --method $(STATES_METHOD) --out $(STATES_OUT)/states.csv > /dev/null
+	$(BIN)/whisker states $(CSV) --estimator $(STATES_METHOD) --out $(STATES_OUT)/states.csv > /dev/null
 
 states-demo: $(BIN)/.installed ## the authors' airflow demo CSV, both methods (needs WHISKER_PEER_DATA)
 	@test -n "$(WHISKER_PEER_DATA)" || { echo "set WHISKER_PEER_DATA to the authors' data folder"; exit 2; }
-	$(BIN)/whisker states $(WHISKER_PEER_DATA)/airflow/airflowDemoData.csv --method authors --out $(STATES_OUT)/demo_authors.csv > /dev/null
-	$(BIN)/whisker states $(WHISKER_PEER_DATA)/airflow/airflowDemoData.csv --method adaptive --out $(STATES_OUT)/demo_adaptive.csv > /dev/null
+	$(BIN)/whisker states $(WHISKER_PEER_DATA)/airflow/airflowDemoData.csv --estimator authors --out $(STATES_OUT)/demo_authors.csv > /dev/null
+	$(BIN)/whisker states $(WHISKER_PEER_DATA)/airflow/airflowDemoData.csv --estimator adaptive --out $(STATES_OUT)/demo_adaptive.csv > /dev/null
 
 bench-states: $(BIN)/.installed ## state estimators + closed-loop latency -> benchmarks/results/states.md
 	$(BIN)/python benchmarks/bench_states.py

@@ -84,7 +84,7 @@ def test_the_feasible_edge_lies_on_the_stated_bound():
         cells.setdefault(n, []).append(float(r))
     rows = []
     for n, radii in cells.items():
-        rows += sweep([n], radii, workers=-1)
+        rows += sweep([n], radii, workers=-1, closed_form=False)     # the CAD itself, not the bound
     by = {(row["count"], row["ring_radius_mm"]): row for row in rows}
     for n, r in inside:
         assert by[(n, float(r))]["feasible"], by[(n, float(r))]["reason"]
@@ -92,6 +92,32 @@ def test_the_feasible_edge_lies_on_the_stated_bound():
         row = by[(n, float(r))]
         assert not row["feasible"] and row["kind"] == "conflict"
         assert "coil clearance" in row["conflict"], row["reason"]
+
+
+def test_closed_form_bounds_refuse_before_any_solid(tmp_path):
+    """`cad build` refuses a crowded ring from the bound at once (issue 30: 2 min 39 s before), and
+    the sweep's closed-form cells agree with the CAD's verdict (the test above builds them)."""
+    import subprocess
+    import sys
+
+    from whisker.cad.sweep import evaluate_point
+    from whisker.design import load_design
+    from whisker.design.bounds import refusals
+
+    probe = ("import sys; from click.testing import CliRunner; from whisker.cli import main; "
+             "r = CliRunner().invoke(main, ['cad', 'build', '--set', 'whiskers.count=16', '--set', "
+             "'whiskers.ring_radius=8', '--out', sys.argv[1]]); "
+             "print(r.exit_code, 'cadquery' in sys.modules, 'whisker.cad.build' in sys.modules); print(r.output)")
+    res = subprocess.run([sys.executable, "-c", probe, str(tmp_path / "out")], capture_output=True, text=True)
+    code, cq, build = res.stdout.split("\n")[0].split()
+    assert (code, cq, build) == ("1", "False", "False"), res.stdout + res.stderr   # refused, no CAD kernel loaded
+    assert "crowding" in res.stdout and "13.47" in res.stdout
+    assert refusals(default_design()) == []
+    for n in range(2, 17):
+        r = math.ceil(sizing.crowding_bound_radius(default_design(), n) + 1e-9)
+        assert refusals(load_design(None, (f"whiskers.count={n}", f"whiskers.ring_radius={r}"))) == []
+        row = evaluate_point(None, (), n, float(r - 2)) if r - 2 >= 4 else None
+        assert row is None or (row["conflict"].startswith("crowding") and row["kind"] == "conflict")
 
 
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -127,7 +153,7 @@ def test_sweep_writes_table_plot_and_bound(tmp_path):
     rows = list(csv.DictReader(open(tmp_path / "sweep.csv")))
     cell = {(int(r["count"]), float(r["ring_radius_mm"])): r for r in rows}
     assert cell[(8, 12.0)]["feasible"] == "True"
-    assert cell[(8, 7.0)]["feasible"] == "False" and "coil clearance" in cell[(8, 7.0)]["conflict"]
+    assert cell[(8, 7.0)]["feasible"] == "False" and "crowding (closed-form bound)" in cell[(8, 7.0)]["conflict"]
     assert float(cell[(8, 7.0)]["bound_mm"]) == pytest.approx(sizing.crowding_bound_radius(default_design(), 8), abs=1e-4)  # 4 decimals
     assert (tmp_path / "sweep.png").stat().st_size > 10_000
     assert "small-ring bound" in (tmp_path / "sweep.md").read_text()

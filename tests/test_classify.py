@@ -150,7 +150,10 @@ def test_cli_train_predict_evaluate(tmp_path):
     (tmp_path / "in.csv").write_text("\n".join(rows) + "\n")
     res = run_cli("classify", "predict", "--model", str(model), "--input", str(tmp_path / "in.csv"))
     assert res.returncode == 0, res.stderr
-    assert [line.split("\t")[1] for line in res.stdout.splitlines()] == ["obj1", "obj1"]
+    lines = res.stdout.splitlines()
+    assert lines[0] == "sample\tlabel\tprobability"            # a header, then one row per sample
+    assert [line.split("\t")[1] for line in lines[1:]] == ["obj1", "obj1"]
+    assert "2 sample(s): obj1 2" in res.stderr                  # the count per predicted class
     (tmp_path / "short.csv").write_text(",".join(rows[0].split(",")[:100]) + "\n")
     res = run_cli("classify", "predict", "--model", str(model), "--input", str(tmp_path / "short.csv"))
     assert res.returncode == 2 and "100 features per sample, expected 128" in res.stderr
@@ -158,7 +161,7 @@ def test_cli_train_predict_evaluate(tmp_path):
     res = run_cli("classify", "predict", "--model", str(model), "--input", str(tracks), "--tracks")
     assert res.returncode == 2 and "whisker 2 invalid or missing at frame 3" in res.stderr
     res = run_cli("classify", "predict", "--model", str(model), "--input", str(tracks), "--tracks", "--invalid", "zero")
-    assert res.returncode == 0 and len(res.stdout.splitlines()) == 1
+    assert res.returncode == 0 and len(res.stdout.splitlines()) == 2
     res = run_cli("classify", "evaluate", "--data", str(tmp_path / "data"), "--protocol", "trial",
                   "--protocol", "random+rot", "--seeds", "2", "--out", str(tmp_path / "ev"))
     assert res.returncode == 0, res.stderr

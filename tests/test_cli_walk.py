@@ -8,9 +8,11 @@ for every invocation:
 
 - no Python traceback, no "internal error" (an unexpected exception reached the CLI's error path),
   no RuntimeWarning (overflow, invalid value) printed;
-- garbage (NaN, +-inf, +-1e308 or an empty value for a number, a folder where a file is expected,
-  a path under a regular file, a non-UTF-8 input file) never exits 0 and never runs to the time
-  limit (the command accepted it and started working);
+- garbage (NaN, +-inf, +-1e308, text or an empty value for a number; an inverted range, a zero step,
+  NaN or text for a range option (a..b:step); a folder where a file is expected, a path under a
+  regular file, a non-UTF-8 input file, an unwritable output under /proc) never exits 0 and never
+  runs to the time limit (the command accepted it and started working);
+- a 0-byte file and a folder for every file argument may be valid, but never crash;
 - every failure's own message is one line on stderr.
 
 Budget: in the test suite each command gets WHISKER_WALK_COMMAND_S (3 s) of cases, garbage first, in
@@ -112,6 +114,7 @@ def world(tmp_path_factory):
     (base / "input.csv").write_text("\n".join(rows) + "\n")
     make_trial(base / "session", default_design(), offset_s=0.2, amplitude=2.0)
     (base / "a_file").write_text("x\n")
+    (base / "empty.dat").write_bytes(b"")
     (base / "binary.bin").write_bytes(b"\xff\xfe\x00\x81garbage\xc3\x28" * 8)
     (base / "a_dir").mkdir()
     return base
@@ -166,14 +169,23 @@ def hostile_values(param: click.Parameter, w: Path, fresh: Path) -> list[tuple[s
                 ("missing", str(fresh / "missing" / "nothing.toml"), not out)]
         if not t.dir_okay:
             vals.append(("a folder", str(w / "a_dir"), True))
+        elif not out and t.file_okay:
+            vals.append(("a folder", str(w / "a_dir"), False))      # may be valid (a session folder): no crash
         if not out:
             vals.append(("non-UTF-8 file", str(w / "binary.bin"), True))
+            if t.file_okay:
+                vals.append(("0-byte file", str(w / "empty.dat"), False))   # may be valid (an empty TOML)
         if out:
             vals.append(("in /proc", "/proc/whisker-walk/x", True))
         return vals
     if isinstance(t, NUMBER_TYPES):
         return [("nan", "nan", True), ("inf", "inf", True), ("-inf", "-inf", True), ("1e308", "1e308", True),
-                ("-1e308", "-1e308", True), ("empty", "", True), ("zero", "0", False), ("negative", "-1", False)]
+                ("-1e308", "-1e308", True), ("empty", "", True), ("text", "abc", True), ("zero", "0", False),
+                ("negative", "-1", False)]
+    if ".." in str(param.default or ""):
+        # a range option (a..b or a..b:step): inverted and zero-step ranges, NaN and text are garbage
+        return [("inverted range", "16..2", True), ("zero step", "4..25:0", True), ("nan", "nan", True),
+                ("text", "abc", True), ("empty", "", True), ("nan in range", "4..nan", True)]
     # free text: only no traceback (a title may be "nan"); numbers given as text are tried too
     return [("empty", "", False), ("nan", "nan", False), ("1e308", "1e308", False), ("-1", "-1", False),
             ("non-UTF-8", os.fsdecode(b"\xff\xfe\x81"), False), ("a folder", str(w / "a_dir"), False)]
@@ -388,7 +400,9 @@ def write_report(path: Path, outcomes: list[Outcome], table) -> None:
     slow = sorted(outcomes, key=lambda o: -o.seconds)[:5]
     lines = [f"# CLI walk: {len(outcomes)} of {sum(map(len, table.values()))} hostile invocations "
              f"({'full' if FULL else f'{COMMAND_S:g} s per command'}; limit {TIME_LIMIT_S:g} s each)", "",
-             "Written by `make fuzz` (tests/test_cli_walk.py).", "",
+             "Written by tests/test_cli_walk.py: " + ("`make fuzz` (every case)." if FULL else
+                 f"a reduced budget of {COMMAND_S:g} s of cases per command, garbage first (`make docs-fuzz`; "
+                 "`make fuzz` runs every case)."), "",
              f"exit status: " + ", ".join(f"{k}: {v}" for k, v in sorted(codes.items(), key=str)),
              f"problems: {sum(bool(o.problems) for o in outcomes)}", "",
              "| command | invocations | of | problems |", "|---|---|---|---|"]

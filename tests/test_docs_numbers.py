@@ -102,6 +102,8 @@ CHECKS = [
     ("README.md", r"For the paper's coil: \d+ turns of ([\d.]+) mm wire do \*\*not\*\* fit (\d+) x (\d+) mm",
      lambda c: [c.d.coil.wire_diameter, c.d.coil.outer_diameter, c.d.coil.length]),
     ("README.md", r"\*\*(\d+) turns, ([\d.]+) ohm\*\*", lambda c: [c.d.coil.turns, c.d.coil.resistance]),
+    ("docs/raspberry-pi.md", r"the series resistor of hw/bom.csv \(([\d.]+) ohm, ([\d.]+) W",
+     lambda c: [c.spec_number("series_resistor", r"^([\d.]+) ohm"), c.spec_number("series_resistor", r", ([\d.]+) W,")]),
     ("docs/assembly.md", r"each needs at least (\d+) mm from the winding out through the wall, and swinging "
      r"changes its taut path by up to ([\d.]+) mm",
      lambda c: [_leads(c)["needed_to_outside_mm"], _leads(c)["swing_slack_mm"]]),

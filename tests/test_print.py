@@ -214,7 +214,7 @@ def test_missing_slicer_says_how_to_install_it(tmp_path):
         mp.setenv("WHISKER_PRUSA_SLICER", "no-such-prusa-slicer")
         with pytest.raises(pc.ToolMissing, match="apt-get install prusa-slicer"):
             pc.find_tool("prusa-slicer")
-    res = subprocess.run([sys.executable, "-m", "whisker.cli", "print", "check", "--out", str(tmp_path)],
+    res = subprocess.run([sys.executable, "-m", "whisker.cli", "print", "check", "--build", str(tmp_path)],
                          capture_output=True, text=True, env=env, cwd=ROOT, timeout=120)
     assert res.returncode == 3
     assert "prusa-slicer not found" in res.stderr and "sudo apt-get install prusa-slicer" in res.stderr
@@ -261,7 +261,7 @@ def test_the_slicer_itself_refuses_a_part_wider_than_its_bed(default_build, tmp_
 
 def _check_print_cli(out: Path, *sets: str) -> dict:
     args = [a for s in sets for a in ("--set", s)]
-    res = run_cli("print", "check", *args, "--out", str(out), "--coarse", "-q")
+    res = run_cli("print", "check", *args, "--build", str(out), "--coarse", "-q")
     assert res.returncode == 0, res.stdout + res.stderr
     return json.loads((out / "print_report.json").read_text())
 

@@ -141,7 +141,7 @@ def test_read_tracks_both_layouts(tmp_path):
 
 def test_states_command(tmp_path):
     src = _write_track_csv(tmp_path / "t.csv")
-    res = run_cli("states", str(src), "--out", str(tmp_path / "s.csv"))
+    res = run_cli("states", str(src), "--set", "whiskers.count=2", "--out", str(tmp_path / "s.csv"))
     assert res.returncode == 0, res.stderr
     lines = [json.loads(x) for x in res.stdout.splitlines()]
     assert len(lines) == 40 and lines[-1]["states"][1] == "contact" and lines[35]["dx"][0] is None
@@ -152,10 +152,98 @@ def test_states_command(tmp_path):
 
 
 def test_live_on_the_simulator_streams_json(tmp_path):
-    res = run_cli("live", "--source", "sim", "--fps", "90", "--max-frames", "6", "--record", str(tmp_path / "v.mp4"))
+    res = run_cli("live", "--source", "sim", "--fps", "15", "--max-frames", "17", "--record", str(tmp_path / "v.mp4"))
     assert res.returncode == 0, res.stderr
     lines = [json.loads(x) for x in res.stdout.splitlines()]
-    assert len(lines) == 6 and all(len(x["states"]) == 8 and all(x["valid"]) for x in lines)
+    assert len(lines) == 17 and all(len(x["states"]) == 8 and all(x["valid"]) for x in lines)
     assert (tmp_path / "v.mp4").stat().st_size > 1000
     bad = run_cli("live", "--source", str(tmp_path / "nothing.mp4"))
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
+
+
+# --- issue 30: what the estimators cannot decide, and the synthetic source ------------------------
+
+@pytest.fixture(scope="module")
+def synthetic_tracks(tmp_path_factory):
+    path = tmp_path_factory.mktemp("syn") / "tracks.csv"
+    res = run_cli("track", "--source", "synthetic:100", "--out", str(path))
+    assert res.returncode == 0, res.stderr
+    return path
+
+
+def test_default_estimator_labels_the_synthetic_swing_dynamic(synthetic_tracks):
+    """The synthetic source swings every whisker from its first frame (no rest segment at the
+    start): the default estimator must call that motion dynamic (recall >= 0.9), and say where its
+    rest reference came from."""
+    res = run_cli("states", str(synthetic_tracks))
+    assert res.returncode == 0, res.stderr
+    states = np.array([json.loads(x)["states"] for x in res.stdout.splitlines()])
+    assert states.shape == (100, 8)
+    assert np.mean(states == "dynamic") >= 0.9, np.mean(states == "dynamic", axis=0)
+    assert "never still" in res.stderr
+
+
+def test_states_refuses_what_it_cannot_decide(tmp_path, synthetic_tracks):
+    lines = synthetic_tracks.read_text().splitlines()
+    short = tmp_path / "short.csv"
+    short.write_text("\n".join(lines[:1 + 8 * 5]) + "\n")          # 5 frames
+    for est in ("adaptive", "authors"):
+        res = run_cli("states", str(short), "--estimator", est)
+        assert res.returncode == 2 and "cannot decide" in res.stderr and len(res.stderr.splitlines()) == 1, res.stderr
+    # a whisker held 8 px off its baseline for the whole recording: contact or displaced rest?
+    t = np.arange(0, 3.0, 1 / 15)
+    rng = np.random.default_rng(0)
+    held = tmp_path / "held.csv"
+    held.write_text("Time,dx,dy\n" + "".join(f"{a:.4f},{8 + 3 * np.sin(9 * a) + rng.normal(0, .2):.4f},"
+                                             f"{rng.normal(0, .2):.4f}\n" for a in t))
+    res = run_cli("states", str(held), "--set", "whiskers.count=1")
+    assert res.returncode == 2 and "no rest segment" in res.stderr, res.stderr
+
+
+@pytest.mark.parametrize("cell,what", [("inf", "not finite"), ("nan", "not finite"), ("abc", "not a number")])
+def test_states_refuses_non_finite_tracks(tmp_path, cell, what):
+    src = _write_track_csv(tmp_path / "t.csv", n=8)
+    rows = src.read_text().splitlines()
+    parts = rows[5].split(",")
+    parts[5] = cell
+    rows[5] = ",".join(parts)
+    src.write_text("\n".join(rows) + "\n")
+    res = run_cli("states", str(src))
+    assert res.returncode == 2 and what in res.stderr and len(res.stderr.splitlines()) == 1, res.stderr
+    air = tmp_path / "air.csv"
+    air.write_text("Time,dx,dy\n" + "".join(f"{k / 15:.4f},{cell},{cell}\n" for k in range(40)))
+    res = run_cli("states", str(air), "--set", "whiskers.count=1")
+    assert res.returncode == 2 and what in res.stderr, res.stderr
+
+
+def test_states_refuses_whiskers_outside_the_design(tmp_path):
+    src = _write_track_csv(tmp_path / "t.csv", n=8)
+    rows = src.read_text().splitlines()
+    rows[3] = rows[3].split(",", 3)[0] + "," + rows[3].split(",", 3)[1] + ",99," + rows[3].split(",", 3)[3]
+    src.write_text("\n".join(rows) + "\n")
+    res = run_cli("states", str(src))
+    assert res.returncode == 2 and "whisker index 99 is outside the design's 8 whiskers" in res.stderr, res.stderr
+    empty = tmp_path / "empty.csv"
+    empty.write_text("Time,dx,dy\n" + "".join(f"{k / 15:.4f},,\n" for k in range(40)))
+    res = run_cli("states", str(empty), "--set", "whiskers.count=1")
+    assert res.returncode == 2 and "no valid (finite) displacement" in res.stderr
+
+
+def test_live_is_not_silent_when_it_decides_nothing():
+    res = run_cli("live", "--source", "synthetic:5", "--rest-frames", "1000", "-q")
+    assert res.returncode != 0 and "fewer than the 1000 --rest-frames" in res.stderr
+    res = run_cli("live", "--source", "synthetic:12", "-q")
+    assert res.returncode != 0 and "could decide" in res.stderr
+
+
+def test_live_on_the_simulator_sees_a_scheduled_contact():
+    """`live --source sim --contact`: an object pushing whisker 2 from 1.6 s to 2.6 s is labelled a
+    contact on that whisker only; without a stimulus the command says nothing touches the whiskers."""
+    res = run_cli("live", "--source", "sim", "--contact", "2:1.6-2.6:6", "--max-frames", "50", "-q")
+    assert res.returncode == 0, res.stderr
+    recs = [json.loads(x) for x in res.stdout.splitlines()]
+    w2 = [r["states"][2] for r in recs if 1.9 <= r["t"] <= 2.5]
+    assert w2 and w2.count("contact") >= 0.6 * len(w2), w2
+    assert all(s == "rest" for r in recs for i, s in enumerate(r["states"]) if i != 2)
+    bad = run_cli("live", "--source", "sim", "--contact", "9:1-2:5", "--max-frames", "2")
+    assert bad.returncode == 2 and "whiskers 0-7" in bad.stderr

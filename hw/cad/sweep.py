@@ -20,9 +20,12 @@ from whisker.files import atomic_write_bytes, atomic_write_text
 FIELDS = ("count", "ring_radius_mm", "feasible", "conflict", "kind", "reason", "bound_mm", "seconds")
 
 
-def evaluate_point(design_file: str | None, overrides: tuple[str, ...], count: int, radius: float) -> dict:
+def evaluate_point(design_file: str | None, overrides: tuple[str, ...], count: int, radius: float,
+                   closed_form: bool = True) -> dict:
     """One (count, radius) cell: feasible, or the first failed check (its kind says whether it is a
-    physical conflict of the design or a fault of the CAD), with the crowding bound for this count."""
+    physical conflict of the design or a fault of the CAD), with the crowding bound for this count.
+    closed_form: a cell that a closed-form bound (whisker.design.bounds) rules out is refused
+    without building (conflict "<bound> (closed-form bound)")."""
     from whisker.design.sizing import crowding_bound_radius
 
     t0 = time.perf_counter()
@@ -34,6 +37,14 @@ def evaluate_point(design_file: str | None, overrides: tuple[str, ...], count: i
         row.update(conflict="design model", kind="conflict", reason=str(err))
         return row
     row["bound_mm"] = round(crowding_bound_radius(d), 4)
+    if closed_form:
+        from whisker.design.bounds import refusal
+
+        why = refusal(d)
+        if why:
+            row.update(conflict=f"{why.split(':')[0]} (closed-form bound)", kind="conflict", reason=why,
+                       seconds=round(time.perf_counter() - t0, 3))
+            return row
     from .build import evaluate  # CadQuery loads in the worker only
 
     try:
@@ -52,14 +63,15 @@ def evaluate_point(design_file: str | None, overrides: tuple[str, ...], count: i
 
 def sweep(counts: Iterable[int], radii: Iterable[float], design_file: str | None = None,
           overrides: tuple[str, ...] = (), workers: int = -1,
-          progress: Callable[[int, int], None] | None = None) -> list[dict]:
-    """Evaluate every (count, radius) cell on `workers` processes (joblib; -1 = every core)."""
+          progress: Callable[[int, int], None] | None = None, closed_form: bool = True) -> list[dict]:
+    """Evaluate every (count, radius) cell on `workers` processes (joblib; -1 = every core);
+    closed_form=False builds even the cells a closed-form bound rules out (to test the bound)."""
     from joblib import Parallel, delayed
 
     jobs = [(n, float(r)) for n in counts for r in radii]
     rows: list[dict] = []
     run = Parallel(n_jobs=workers, return_as="generator_unordered")
-    for row in run(delayed(evaluate_point)(design_file, tuple(overrides), n, r) for n, r in jobs):
+    for row in run(delayed(evaluate_point)(design_file, tuple(overrides), n, r, closed_form) for n, r in jobs):
         rows.append(row)
         if progress:
             progress(len(rows), len(jobs))
@@ -136,9 +148,10 @@ def _plot(rows, counts, radii, path: Path) -> Path:
     ax.set_yticks(counts)
     ax.grid(alpha=0.3)
     ax.set_title("Feasible region (every other size follows the ring)")
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1))
+    # below the axes, inside the saved figure (bbox_inches="tight" grows the canvas to hold it)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, frameon=False)
     fig.tight_layout()
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
     plt.close(fig)
     return atomic_write_bytes(path, buf.getvalue())

@@ -32,6 +32,57 @@ def design_options(f):
     return wrapper
 
 
+def check_out_path(path, command: str, *, folder: bool = False):
+    """Validate an output path before any work: not an existing folder when a file is written (or a
+    file when a folder is), and its nearest existing parent a writable folder. Exits 2 with one
+    line otherwise; returns the Path."""
+    import os
+    from pathlib import Path
+
+    p = Path(path)
+    if not str(path).strip():
+        fail(f"{command}: --out is empty; give a file or folder name")
+    if p.exists():
+        if not folder and p.is_dir():
+            fail(f"{command}: --out {p} is a folder; give a file name")
+        if folder and not p.is_dir():
+            fail(f"{command}: --out {p} is a file; give a folder name")
+    parent = p.parent if not p.exists() else (p if folder else p.parent)
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        fail(f"{command}: --out {p}: {parent} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK) or str(parent.resolve()).startswith(("/proc", "/sys")):
+        fail(f"{command}: --out {p}: cannot write in {parent} (permission denied or a system folder)")
+    return p
+
+
+def exclusive_out(path, command: str):
+    """Context manager: the output lock of `path` (whisker.files.output_lock); a second writer
+    exits 1 with one line naming the output."""
+    import contextlib
+
+    from whisker.files import OutputBusy, output_lock
+
+    @contextlib.contextmanager
+    def _cm():
+        try:
+            cm = output_lock(path)
+            cm.__enter__()
+        except OutputBusy as err:
+            fail(f"{command}: {err}", code=1)
+        except OSError as err:
+            fail(f"{command}: cannot lock the output {path}: {err.strerror or err}", code=1)
+        try:
+            yield
+        except BaseException as err:
+            if not cm.__exit__(type(err), err, err.__traceback__):
+                raise
+        else:
+            cm.__exit__(None, None, None)
+    return _cm()
+
+
 def fail(message: str, code: int = 2) -> None:
     """Print one line to stderr and exit non-zero."""
     click.echo(message, err=True)

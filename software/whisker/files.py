@@ -115,3 +115,40 @@ def publish(staged: Path, final: Path, names: list[str], stale: list[str] = (),
     for name in stale:
         if name not in names:
             (final / name).unlink(missing_ok=True)
+
+
+class OutputBusy(OSError):
+    """Another process is writing the same output."""
+
+
+@contextmanager
+def output_lock(final: str | Path) -> Iterator[Path]:
+    """Hold an exclusive lock on the output `final` (a file or folder) for the duration of a run.
+
+    The lock is ``.NAME.lock`` beside it, held with fcntl.flock (the kernel drops it when the
+    process dies, so a crash leaves no stale lock). A second writer raises `OutputBusy` at once
+    instead of racing the first to the last rename."""
+    import fcntl
+
+    final = Path(final)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    lock = final.parent / f".{final.name}.lock"
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            try:
+                other = os.read(fd, 32).decode(errors="replace").strip() or "?"
+            except OSError:
+                other = "?"
+            raise OutputBusy(f"{final} is being written by another run (pid {other}); wait for it or give "
+                             f"another --out") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, str(os.getpid()).encode())
+        try:
+            yield final
+        finally:
+            lock.unlink(missing_ok=True)
+    finally:
+        os.close(fd)

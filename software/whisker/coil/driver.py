@@ -309,7 +309,8 @@ def plan(design, target_coil_V: float | None = None, driver: str | None = None,
         rs_exact = (vs - br.v0_typ) / i_t - rc - br.r_typ
         rs = nearest_preferred(rs_exact, series, "up") if rs_exact > 0 else 0.0
         i_c, i_h = coil_current_A(br, vs, rc, rs), coil_current_A(br, vs, rh, rs)
-        plans.append(DrivePlan("series", f"series resistor {rs:g} ohm ({series}; exact {rs_exact:.3g})",
+        plans.append(DrivePlan("series", f"series resistor alone (no PWM): {rs:g} ohm ({series}; exact {rs_exact:.3g}) "
+                                         f"would give {vt:g} V fully on; not the design's drive (pwm+series below)",
                                i_c * rc, i_c, i_h, 100 * (i_h / i_c - 1), i_c ** 2 * rc,
                                i_c ** 2 * rs + i_c * br.drop_V(i_c)))
         # the paper's divider: R1 in series, R2 across the coil; pick R2 = coil/2 ... show regulation

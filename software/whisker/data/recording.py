@@ -147,6 +147,7 @@ class Recorder:
             "actuation": _Table(self.folder / "actuation.csv", actuation_columns(self.n), fsync),
             "guard": _Table(self.folder / "guard.csv",
                             ["time_s"] + [f"temperature_{i}" for i in range(self.n)], fsync),
+            "events": _Table(self.folder / "events.csv", ["time_s", "event", "coils", "temperatures_C"], fsync),
         }
         self.meta = {
             "format": FORMAT,
@@ -218,6 +219,11 @@ class Recorder:
         self.tables["actuation"].append(
             [[_num(self.session_time(monotonic_s)), phase] + [_num(v, ".6g") for v in req] + [_num(v, ".6g") for v in app]])
 
+    def log_event(self, clock_s: float, event: str, coils, temperatures_C) -> None:
+        """Actuator on_event callback: one events.csv row (a guard derate/cut starting or ending)."""
+        self.tables["events"].append([[_num(self.session_time(clock_s)), event, " ".join(map(str, coils)),
+                                       " ".join(f"{float(v):.2f}" for v in temperatures_C)]])
+
     def log_guard(self, temperatures, time_s: Optional[float] = None) -> None:
         t = self.now() if time_s is None else float(time_s)
         self.tables["guard"].append([[_num(t)] + [_num(v, ".3f") for v in temperatures]])
@@ -287,6 +293,23 @@ class Session:
     act_applied: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     guard_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     guard_temperatures: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    events: list = field(default_factory=list)      # (time_s, event, coils) of events.csv
+
+    def guard_intervals(self) -> list[tuple[float, float, str, list]]:
+        """(start_s, end_s, "derate"/"cut", coils) of every guard derate or cut in the session; one
+        still running at the end ends at the last frame."""
+        end_t = float(self.frame_time_s[-1]) if len(self.frame_time_s) else 0.0
+        out, open_ = [], {}
+        for t, ev, coils in self.events:
+            for c in coils:
+                if ev in ("derate", "cut"):
+                    open_.setdefault((ev, c), t)
+                elif ev in ("derate-end", "resume"):
+                    kind = "derate" if ev == "derate-end" else "cut"
+                    if (kind, c) in open_:
+                        out.append((open_.pop((kind, c)), t, kind, [c]))
+        out += [(t0, end_t, kind, [c]) for (kind, c), t0 in open_.items()]
+        return sorted(out)
 
     @property
     def complete(self) -> bool:
@@ -392,7 +415,14 @@ def _read_session(folder: Path, meta: dict, n: int) -> Session:
     gd = read_table(folder / "guard.csv")
     gt = _floats(gd.get("time_s", []))
     gtemp = np.array([_floats(gd.get(f"temperature_{i}", [])) for i in range(n)]).T.reshape(len(gt), n)
-    return Session(folder, meta, idx, t, files, tracks, at, list(ac.get("phase", [])), req, app, gt, gtemp)
+    ev = read_table(folder / "events.csv")
+    events = []
+    for ts, name, coils in zip(_floats(ev.get("time_s", [])), ev.get("event", []), ev.get("coils", [])):
+        try:
+            events.append((float(ts), name, [int(c) for c in coils.split()]))
+        except ValueError:
+            continue          # a torn or edited row: the events are a record, not the data
+    return Session(folder, meta, idx, t, files, tracks, at, list(ac.get("phase", [])), req, app, gt, gtemp, events)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -401,21 +431,25 @@ def _read_session(folder: Path, meta: dict, n: int) -> Session:
 
 def record_frames(recorder: Recorder, frames, *, tracker=None, model: str = "paper", runner=None,
                   actuator=None, max_frames: Optional[int] = None, duration_s: Optional[float] = None,
-                  after_sequence_s: Optional[float] = None, on_frame=None) -> int:
+                  after_sequence_s: Optional[float] = None, on_frame=None, frame_times: bool = False) -> int:
     """Record `frames` (an iterable of whisker.vision.camera.Frame) into `recorder`.
 
     Per frame: session time, the sequence runner's tick (actuation rows are logged by the actuator's
     log callback, which the caller points at ``recorder.log_actuation``), tracking (if a calibrated
     `tracker` is given), the guard's temperatures, then the frame itself. Stops at the end of the
     frames, after `max_frames`, after `duration_s`, or `after_sequence_s` after the sequence ended.
-    Returns the number of frames written.
+    Returns the number of frames written. frame_times: the frames' own time_s is session time (a
+    simulated camera on the recorder's clock, `SimCamera.epoch`), so frames buffered before
+    writing (the rest frames) keep the time they were taken.
     """
     from whisker.vision.camera import Frame
 
     count = 0
     seq_end = None
     for frame in frames:
-        t = recorder.now()
+        t = float(frame.time_s) if frame_times else recorder.now()
+        if duration_s is not None and t >= duration_s - 1e-9:
+            break                       # [0, duration): fps x duration frames from a regular clock
         if runner is not None:
             if runner.t0 is None:
                 runner.start(recorder.clock())
@@ -437,8 +471,6 @@ def record_frames(recorder: Recorder, frames, *, tracker=None, model: str = "pap
         if on_frame is not None:
             on_frame(count, t)
         if max_frames is not None and count >= max_frames:
-            break
-        if duration_s is not None and t >= duration_s:
             break
         if seq_end is not None and after_sequence_s is not None and t - seq_end >= after_sequence_s:
             break
@@ -465,13 +497,14 @@ class SimCamera:
         self.design, self.backend, self.fps, self.count, self.seed = design, backend, float(fps), count, seed
         self.render_kw = {"noise_sigma": noise_sigma, "blur_px": blur_px}
         self.clock, self.sleep = clock, sleep
+        self.epoch: Optional[float] = None      # clock time of t = 0 (default: the first frame's)
         self._closed = False
 
     def __iter__(self):
         from whisker.vision import render
         from whisker.vision.camera import Frame
 
-        t0 = self.clock()
+        t0 = self.clock() if self.epoch is None else self.epoch
         i = 0
         while not self._closed and (self.count is None or i < self.count):
             wait = t0 + i / self.fps - self.clock()

@@ -44,10 +44,15 @@ class Fig8Data:
     quantity: str
     trials: int
     band: str
+    #: (start_s, end_s, label) intervals the plot shades: the guard's derates and cuts, and gaps
+    #: with no frame longer than max_gap_s (bridged by interpolation, not blanked)
+    shades: list = None
 
 
 def _interp_valid(t_grid, t, y, max_gap_s):
-    """Interpolate y(t) onto t_grid from its finite samples; NaN outside them or across long gaps."""
+    """Interpolate y(t) onto t_grid from its finite samples; NaN outside them, and across a gap
+    longer than max_gap_s that holds invalid frames (lost markers). A gap with no frame at all
+    (the camera was late) is bridged: `frame_gaps` reports it, for the plot to shade."""
     ok = np.isfinite(y) & np.isfinite(t)
     out = np.full(t_grid.shape, np.nan)
     if ok.sum() == 0:
@@ -60,8 +65,20 @@ def _interp_valid(t_grid, t, y, max_gap_s):
     # blank grid points that fall in a gap between valid samples longer than max_gap_s
     j = np.clip(np.searchsorted(tv, t_grid), 1, len(tv) - 1)
     gap = tv[j] - tv[j - 1]
-    out[gap > max_gap_s] = np.nan
+    pos = np.flatnonzero(ok)
+    invalid_between = (pos[j] - pos[j - 1]) > 1
+    out[(gap > max_gap_s) & invalid_between] = np.nan
     return out
+
+
+def frame_gaps(t, max_gap_s) -> list[tuple[float, float]]:
+    """(start, end) s of every interval between consecutive frames longer than max_gap_s."""
+    t = np.asarray(t, dtype=float)
+    t = t[np.isfinite(t)]
+    if t.size < 2:
+        return []
+    k = np.flatnonzero(np.diff(t) > max_gap_s)
+    return [(float(t[i]), float(t[i + 1])) for i in k]
 
 
 #: --align value that aligns every trial on its first frame instead of an actuation command
@@ -119,10 +136,18 @@ def fig8_data(sessions: Sequence[Session], *, quantity: str = "px", align: str =
                              "track it first or record with tracking")
     _check_align(sessions, align)
     series, phases = [], {}
-    intervals = []
+    intervals, shades = [], []
+    empty = [str(s.folder) for s in sessions if len(s.frame_time_s) == 0]
+    if empty:
+        raise ValueError(f"no frames in {', '.join(empty)} (frames.csv has no complete row): nothing to plot")
     for s in sessions:
         t0 = align_time(s, align)
         t = s.frame_time_s - t0
+        if not np.all(np.isfinite(s.frame_time_s)):
+            raise ValueError(f"session {s.folder}: frames.csv has frame times that are not finite numbers; "
+                             "the recording is damaged (check frames.csv)")
+        for a, b, kind, coils in s.guard_intervals():
+            shades.append((a - t0, b - t0, f"guard {kind}"))
         series.append((t, s.displacement(quantity)))
         if len(t) > 1:
             intervals.append(np.diff(t))
@@ -136,6 +161,8 @@ def fig8_data(sessions: Sequence[Session], *, quantity: str = "px", align: str =
     if not (dt_s > 0 and np.isfinite(dt_s)):
         raise ValueError(f"fig8: time step must be a positive number, got {dt_s}")
     max_gap_s = 3.0 * dt_s if max_gap_s is None else float(max_gap_s)
+    for t, _ in series:
+        shades += [(a, b, "no frames") for a, b in frame_gaps(t, max_gap_s)]
     t_min = min(float(np.min(t)) for t, _ in series if len(t))
     t_max = max(float(np.max(t)) for t, _ in series if len(t))
     span = (t_max - t_min) / dt_s
@@ -166,7 +193,22 @@ def fig8_data(sessions: Sequence[Session], *, quantity: str = "px", align: str =
                     sd = sd / np.sqrt(np.maximum(count, 1))
                 lo, hi = mean - sd, mean + sd
     return Fig8Data(grid, mean, lo, hi, count, {p: float(np.mean(v)) for p, v in phases.items()},
-                    quantity, len(sessions), band)
+                    quantity, len(sessions), band, _merge_shades(shades))
+
+
+def _merge_shades(shades) -> list[tuple[float, float, str]]:
+    """Overlapping intervals of one label merged (one shade per derate across coils and trials)."""
+    out = []
+    for label in sorted({x[2] for x in shades}):
+        iv = sorted((a, b) for a, b, lab in shades if lab == label)
+        merged = []
+        for a, b in iv:
+            if merged and a <= merged[-1][1]:
+                merged[-1][1] = max(merged[-1][1], b)
+            else:
+                merged.append([a, b])
+        out += [(a, b, label) for a, b in merged]
+    return sorted(out)
 
 
 def plot_fig8(data: Fig8Data, path, *, title: str = "", grid: bool = False) -> Path:
@@ -199,7 +241,13 @@ def plot_fig8(data: Fig8Data, path, *, title: str = "", grid: bool = False) -> P
         ax.fill_between(data.t_s, data.band_lo[:, w], data.band_hi[:, w], color=c, alpha=0.2, lw=0)
         if grid:
             ax.set_title(f"whisker {w}", fontsize=9)
+    shade_colors = {"guard derate": "#f2c14e", "guard cut": "#d62728", "no frames": "#999999"}
     for ax in set(axs):
+        seen = set()
+        for a, b, label in data.shades or []:
+            ax.axvspan(a, b, color=shade_colors.get(label, "#cccccc"), alpha=0.18, lw=0,
+                       label=label if label not in seen else None)
+            seen.add(label)
         for p, t in data.phases.items():
             ax.axvline(t, color="k", ls="--", lw=0.8)
             ax.annotate(PHASE_MARKS[p], (t, 1.0), xycoords=("data", "axes fraction"), fontsize=8,
@@ -211,6 +259,9 @@ def plot_fig8(data: Fig8Data, path, *, title: str = "", grid: bool = False) -> P
     label_ax.set_ylabel(UNITS[data.quantity])
     if not grid:
         axs[0].legend(fontsize=8, ncol=2, loc="upper right")
+    elif data.shades:
+        axs[0].legend(handles=[h for h in axs[0].get_legend_handles_labels()[0] if not h.get_label().startswith(
+            "whisker")], fontsize=7, loc="upper right")
     fig.suptitle(title or f"{band} over {data.trials} trial(s)", fontsize=10)
     fig.tight_layout()
     path = Path(path)

@@ -103,12 +103,16 @@ class Actuator:
     False for no thermal guard (refused unless ``unguarded_ok=True``: for bench tests of the pins).
     watchdog: run the guard every ``drive.guard_period`` s in a thread (default True; tests with an
     injected clock call :meth:`tick` themselves). log: callback(time_s, phase, requested, applied)
-    for every change of the applied levels (the recorder's actuation table).
+    for every change of the applied levels (the recorder's actuation table). on_event:
+    callback(time_s, event, coils, temperatures_C) when the guard starts or ends derating a coil
+    ("derate", "derate-end") or cuts or restores one ("cut", "resume"): coils is the list of coil
+    indices, temperatures_C their estimated temperatures.
     """
 
     def __init__(self, design, backend, *, guard=None, watchdog: bool = True,
                  clock: Callable[[], float] = time.monotonic, log: Optional[Callable] = None,
-                 unguarded_ok: bool = False, current_fn: Optional[Callable] = None):
+                 unguarded_ok: bool = False, current_fn: Optional[Callable] = None,
+                 on_event: Optional[Callable] = None):
         self.design = design
         self.n = design.whiskers.count
         self.backend = backend
@@ -130,6 +134,10 @@ class Actuator:
         self._stop = threading.Event()
         self._thread = None
         self._logged = np.zeros(self.n)
+        self.on_event = on_event
+        self._derating = np.zeros(self.n, dtype=bool)
+        self._cut = np.zeros(self.n, dtype=bool)
+        self.events: list[tuple[float, str, list, list]] = []
         self.failed: Optional[BaseException] = None
         _LIVE.add(self)
         _register_atexit()
@@ -173,6 +181,8 @@ class Actuator:
     def _push(self, force_log: bool) -> np.ndarray:
         now = self.clock()
         allowed = self.requested if self.guard is None else self.guard.allow(self.requested, now)
+        if self.guard is not None:
+            self._guard_events(now, allowed)
         changed = not np.array_equal(allowed, self.applied)
         if changed or force_log:
             try:
@@ -185,6 +195,22 @@ class Actuator:
                 self._logged = self.applied.copy()
                 self.log(now, self.phase, self.requested.copy(), self.applied.copy())
         return self.applied
+
+    def _guard_events(self, now: float, allowed) -> None:
+        """Record (and report through on_event) the guard's derates and cuts as they start and end."""
+        req = np.abs(self.requested)
+        cut = np.asarray(self.guard.tripped, dtype=bool) & (req > 0)
+        derating = (np.abs(allowed) < req * (1.0 - 1e-6)) & ~cut
+        for name, new, old in (("cut", cut, self._cut), ("resume", self._cut & ~cut, None),
+                               ("derate", derating, self._derating), ("derate-end", self._derating & ~derating, None)):
+            started = new & ~old if old is not None else new
+            if started.any():
+                coils = [int(i) for i in np.flatnonzero(started)]
+                temps = [round(float(self.guard.temperatures[i]), 2) for i in coils]
+                self.events.append((now, name, coils, temps))
+                if self.on_event is not None:
+                    self.on_event(now, name, coils, temps)
+        self._cut, self._derating = cut, derating
 
     def _worth_logging(self) -> bool:
         last = self._logged
@@ -351,14 +377,16 @@ def default_state_file(backend_name: str):
 
 
 def open_actuator(design, backend_name: str, *, policy: str = "derate", state_file=None,
-                  log: Optional[Callable] = None, watchdog: bool = True, backend_object=None) -> Actuator:
+                  log: Optional[Callable] = None, watchdog: bool = True, backend_object=None,
+                  clock: Callable[[], float] = time.monotonic, on_event: Optional[Callable] = None) -> Actuator:
     """An Actuator on the named backend (or on `backend_object`, already open) with the design's
-    coil model as thermal guard."""
+    coil model as thermal guard. clock: the time base of the guard and the log (a simulated
+    clock for a simulated recording; then watchdog=False and the caller ticks)."""
     backend = backend_object if backend_object is not None else open_backend(backend_name, design)
     try:
-        guard = ThermalGuard(design, policy=policy,
+        guard = ThermalGuard(design, policy=policy, clock=clock,
                              state_file=state_file if state_file is not None else default_state_file(backend_name))
-        return Actuator(design, backend, guard=guard, watchdog=watchdog, log=log)
+        return Actuator(design, backend, guard=guard, watchdog=watchdog, log=log, clock=clock, on_event=on_event)
     except BaseException:
         close = getattr(backend, "close", None)
         if close is not None:

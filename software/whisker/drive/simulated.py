@@ -11,13 +11,42 @@ the hardware path (whisker.drive.guard.full_scale_voltage).
 
 from __future__ import annotations
 
+import math
 import time
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
 from whisker.drive.guard import full_scale_voltage as _guard_full_scale_voltage
 from whisker.coil.kinematics import gravity_torque, magnetic_torque, step_free, tip_positions_mm, whisker_body
+
+
+@dataclass(frozen=True)
+class Contact:
+    """An object pushing whisker `whisker`'s tip from start_s to end_s (simulated s) until its radial
+    tilt reaches tilt_deg (+ = the retraction side, - = extension; the simulated camera renders the
+    radial tilt): a one-sided wall 50x the membrane's stiffness, as
+    whisker.sim.experiments.state_sequences."""
+    whisker: int
+    start_s: float
+    end_s: float
+    tilt_deg: float
+
+    @staticmethod
+    def parse(text: str) -> "Contact":
+        """W:START-END:DEG, e.g. 0:2-4:5 (whisker 0 pushed to 5 deg from 2 s to 4 s)."""
+        try:
+            parts = text.split(":")
+            if len(parts) != 3:
+                raise ValueError
+            w, deg = int(parts[0]), float(parts[2])
+            a, b = (float(x) for x in parts[1].split("-"))
+        except (ValueError, IndexError):
+            raise ValueError(f"contact {text!r}: expected WHISKER:START-END:DEG, e.g. 0:2-4:5") from None
+        if not all(math.isfinite(v) for v in (a, b, deg)) or not 0 <= a < b or not 0 < abs(deg) <= 45:
+            raise ValueError(f"contact {text!r}: need 0 <= START < END (s) and 0 < |DEG| <= 45, all finite")
+        return Contact(w, a, b, deg)
 
 
 class SimBackend:
@@ -40,6 +69,27 @@ class SimBackend:
         self.t_sim = 0.0
         self._t_wall = clock()
         self.history: list[tuple[float, np.ndarray]] = []
+        self.contacts: list[Contact] = []
+        k_wall = 50.0 * self.body.stiffness                     # a stiff one-sided wall (as state_sequences)
+        self._wall = (k_wall, 2 * 0.5 * math.sqrt(k_wall * self.body.inertia_kgm2))
+
+    def add_contact(self, contact: "Contact") -> None:
+        """Schedule an object pushing whisker tips (see `Contact`); times in simulated seconds."""
+        if not 0 <= contact.whisker < self.n:
+            raise ValueError(f"contact whisker {contact.whisker} is not one of the design's 0-{self.n - 1}")
+        self.contacts.append(contact)
+
+    def _contact_torque(self) -> np.ndarray:
+        tau = np.zeros((self.n, 2))
+        k, c = self._wall
+        for ct in self.contacts:
+            if not ct.start_s <= self.t_sim < ct.end_s:
+                continue
+            w, sign = ct.whisker, math.copysign(1.0, ct.tilt_deg)
+            pen = math.radians(abs(ct.tilt_deg)) - sign * float(self.theta[w, 0])
+            if pen > 0:
+                tau[w, 0] += sign * max(k * pen - c * sign * float(self.omega[w, 0]), 0.0)
+        return tau
 
     # --- contract -----------------------------------------------------------------------------
     def set_levels(self, levels) -> None:
@@ -66,22 +116,31 @@ class SimBackend:
     def sync(self) -> None:
         """Advance the simulation to the clock (at most ``max_catch_up_s`` at once)."""
         now = self.clock()
-        self.advance(min(max(now - self._t_wall, 0.0), self.max_catch_up_s))
-        self._t_wall = now
+        elapsed = max(now - self._t_wall, 0.0)
+        if elapsed > self.max_catch_up_s:        # a long pause: skip what cannot be caught up
+            self._t_wall = now - self.max_catch_up_s
+            elapsed = self.max_catch_up_s
+        steps = int(elapsed / self.dt + 1e-9)
+        self.advance(steps * self.dt)
+        self._t_wall += steps * self.dt          # the remainder is simulated at the next call
 
     def advance(self, seconds: float) -> None:
         from whisker.drive.guard import coil_current_A
 
-        steps = int(seconds / self.dt)
+        steps = int(seconds / self.dt + 1e-9)
         if steps <= 0:
             return
         I = np.asarray(coil_current_A(self.design, self.levels * self.volts_full_scale, 20.0), dtype=float)   # mean current of the PWM
-        for _ in range(steps):
+        t_end = self.t_sim + steps * self.dt
+        for k in range(steps):
             tau = gravity_torque(self.body, self.theta, self.facing)
+            if self.contacts:
+                self.t_sim = t_end - (steps - k) * self.dt
+                tau = tau + self._contact_torque()
             if np.any(I != 0):
                 tau[:, 0] += magnetic_torque(self.design, self.body, self.theta[:, 0], I, self.model)
             self.theta, self.omega = step_free(self.body, self.theta, self.omega, tau, self.dt)
-        self.t_sim += steps * self.dt
+        self.t_sim = t_end
 
     def angles_deg(self) -> np.ndarray:
         """Radial tilt of each whisker, deg (+ = retracted)."""
@@ -91,6 +150,34 @@ class SimBackend:
     def tips_mm(self) -> np.ndarray:
         self.sync()
         return tip_positions_mm(self.design, self.theta)
+
+
+class SimClock:
+    """Simulated time, s: a clock (``clock()``) that moves only when told (``sleep(dt)``).
+
+    A simulated recording (`whisker record --source sim --backend sim`) runs the camera, the
+    simulator, the sequence and the thermal guard on it, so its frames come at exactly 1/fps of
+    simulated time whatever the machine's load. `sleep` advances in steps of at most `period_s`
+    and calls every `hooks` function with the new time after each step (the sequence runner and the
+    guard's watchdog, which a real recording runs in threads on the wall clock)."""
+
+    def __init__(self, period_s: float = 0.01):
+        if not (period_s > 0):
+            raise ValueError(f"sim clock period must be > 0 s, got {period_s}")
+        self.t = 0.0
+        self.period_s = float(period_s)
+        self.hooks: list[Callable[[float], None]] = []
+
+    def __call__(self) -> float:
+        return self.t
+
+    def sleep(self, seconds: float) -> None:
+        end = self.t + max(float(seconds), 0.0)
+        while self.t < end - 1e-12:
+            self.t = min(end, self.t + self.period_s)
+            for hook in list(self.hooks):
+                hook(self.t)
+        self.t = end
 
 
 def actuation_backend(design, **kw) -> SimBackend:

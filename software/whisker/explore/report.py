@@ -97,8 +97,16 @@ def plot_front(rows: list[dict], front: list[dict], x: str, xlabel: str, varied:
     if front:      # a staircase: each front design is the best success up to the next one's cost
         ax.step([r[x] for r in front], [r[SUCCESS] for r in front], where="post", color="tab:red", lw=1)
         ax.plot([r[x] for r in front], [r[SUCCESS] for r in front], "o", color="tab:red", label="Pareto front")
-        for r in front:
-            ax.annotate(label(r, varied), (r[x], r[SUCCESS]), fontsize=7, xytext=(4, 4), textcoords="offset points")
+    # every design is labelled; designs that land on the same point (as printed) share one label
+    spots: dict = {}
+    for r in ok:
+        spots.setdefault((float(f"{r[x]:.4g}"), float(f"{r[SUCCESS]:.4g}")), []).append(r)
+    for (px, py), group in spots.items():
+        text = "; ".join(label(r, varied) for r in group[:4]) + (f" (+{len(group) - 4})" if len(group) > 4 else "")
+        if len(group) > 1:
+            text = f"{len(group)} designs: {text}"
+        ax.annotate(text, (px, py), fontsize=6.5, xytext=(4, 4), textcoords="offset points",
+                    color="tab:red" if any(r in front for r in group) else "0.3")
     base = [r for r in ok if r["design_digest"] == base_digest]
     if base:
         ax.plot([base[0][x]], [base[0][SUCCESS]], "*", ms=14, mfc="none", color="k", label="the base design")
@@ -106,12 +114,12 @@ def plot_front(rows: list[dict], front: list[dict], x: str, xlabel: str, varied:
     refused = sum(r["status"] == "refused" for r in rows)
     ax.set_xlabel(xlabel)
     ax.set_ylabel("grasp success, every whisker driven (%)")
-    ax.set_title(f"{len(ok)} designs simulated, {refused} refused", fontsize=10)
+    ax.set_title(f"{len(ok)} designs simulated ({len(spots)} distinct points), {refused} refused", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="best", framealpha=0.85)
     fig.tight_layout()
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
     plt.close(fig)
     return buf.getvalue()
 
@@ -142,7 +150,7 @@ def write(out: Path, rows: list[dict], points, varied: list[str], base_text: str
         for r in front:
             chosen.setdefault(r["point"], []).append(what)
         lines += [f"## Pareto front: grasp success against {what}", "",
-                  "| design | grasp all % [95 %] | coil W | time to limit s | tilt deg | force mN | mm/px | file |",
+                  "| design | grasp all % [95 %] | coil W | time to limit s | tilt deg | force mN | tip mm per marker px | file |",
                   "|---|---|---|---|---|---|---|---|"]
         lines += [f"| {label(r, varied)} | {r[SUCCESS]:.0f} [{r['grasp_all_lo']:.0f}-{r['grasp_all_hi']:.0f}] | "
                   f"{r['coil_power_W']:.2f} | {r['time_to_limit_s']:.1f} | {r['tilt_deg']:.1f} | "

@@ -94,6 +94,15 @@ class AuthorsEstimator:
 
     name = "authors"
 
+    @property
+    def ready(self) -> bool:
+        """True once a frame was judged (their first `window` frames are rest by construction)."""
+        return self._count > self.p.window
+
+    @property
+    def needs(self) -> str:
+        return f"more than {self.p.window} frames"
+
     def __init__(self, n: int, params: AuthorsParams | None = None):
         self.n = int(n)
         self.p = params or AuthorsParams()
@@ -173,7 +182,10 @@ class AdaptiveParams:
     starts/ends dynamic, never below motion_min_px. drift_s: time constant of the rest offset's
     slow update while at rest. expected_tolerance: the share of the expected (own-actuation)
     displacement added to the contact thresholds, for the error of the free-closing model (the
-    simulator's static map is 6-9 % off MuJoCo's warm coils).
+    simulator's static map is 6-9 % off MuJoCo's warm coils). still_spread, still_min_px: a learning
+    window is a rest segment when its spread about the median is within still_spread x the noise
+    (from second differences, which smooth motion hardly enters) and still_min_px; a whisker that
+    moves during it keeps the tracks' zero (the tracker's rest baseline) as its rest offset.
     """
     learn_s: float = 1.0
     learn_frames: int = 10
@@ -189,6 +201,43 @@ class AdaptiveParams:
     drift_s: float = 10.0
     noise_floor_px: float = 0.05
     expected_tolerance: float = 0.0
+    still_spread: float = 2.5
+    still_min_px: float = 0.8
+
+
+def noise_sigma(xy: np.ndarray) -> np.ndarray:
+    """Tracking noise std per whisker and axis (px) of frames `xy` (F, n, 2) that may be moving.
+
+    1.4826 x the median absolute deviation of the second differences x[k+1] - 2 x[k] + x[k-1],
+    divided by sqrt(6) (the std of a second difference of white noise of std sigma): smooth motion
+    (a swing, a slow push) hardly enters it, unlike the spread about the median. NaN where fewer
+    than 3 finite second differences exist."""
+    d2 = xy[2:] - 2.0 * xy[1:-1] + xy[:-2]
+    with np.errstate(all="ignore"):
+        med = np.nanmedian(d2, axis=0)
+        mad = np.nanmedian(np.abs(d2 - med), axis=0)
+    ok = np.sum(np.isfinite(d2), axis=0) >= 3
+    return np.where(ok, 1.4826 * mad / np.sqrt(6.0), np.nan)
+
+
+def rest_statistics(xy: np.ndarray, p: "AdaptiveParams") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(median (n, 2) px, noise sigma (n, 2) px, still (n,) bool) of frames `xy` (F, n, 2).
+
+    sigma: the smaller of the spread about the median (1.4826 MAD) and the second-difference
+    estimate (`noise_sigma`), floored at `p.noise_floor_px`. still: 90 % of the frames lie within
+    `p.still_spread` x hypot(sigma) (and `p.still_min_px`) of the median, i.e. the frames are a rest
+    segment rather than a motion the learning window happened to see."""
+    with np.errstate(all="ignore"):
+        med = np.nanmedian(xy, axis=0)
+        spread = 1.4826 * np.nanmedian(np.abs(xy - med), axis=0)
+        reach = np.nanpercentile(np.hypot(*(xy - med).transpose(2, 0, 1)), 90, axis=0)    # (n,) px
+    d2 = noise_sigma(xy)
+    sigma = np.where(np.isfinite(d2), np.fmin(spread, d2), spread)
+    sigma = np.maximum(np.where(np.isfinite(sigma), sigma, p.noise_floor_px), p.noise_floor_px)
+    s = np.hypot(sigma[:, 0], sigma[:, 1])
+    # 90 % of 2-D Gaussian noise lies within 1.52 x hypot(sigma_x, sigma_y) of the median
+    still = reach <= np.maximum(p.still_spread * s, p.still_min_px)
+    return med, sigma, still & np.all(np.isfinite(med), axis=1)
 
 
 class AdaptiveEstimator:
@@ -202,6 +251,10 @@ class AdaptiveEstimator:
     """
 
     name = "adaptive"
+
+    @property
+    def needs(self) -> str:
+        return f"{self.p.learn_s:g} s and {self.p.learn_frames} frames of rest"
 
     def __init__(self, n: int, params: AdaptiveParams | None = None):
         self.n = int(n)
@@ -222,21 +275,24 @@ class AdaptiveEstimator:
         self.labels = np.full(n, REST, dtype=np.int8)
         self.displacement = np.zeros((n, 2))
         self.lost = np.zeros(n, dtype=int)
+        self.still = np.ones(n, dtype=bool)
         self._t_prev: float | None = None
 
-    def calibrate(self, dx, dy) -> None:
-        """Learn rest offset and noise from rest frames (arrays frames x whiskers)."""
+    def calibrate(self, dx, dy) -> np.ndarray:
+        """Learn rest offset and noise from rest frames (arrays frames x whiskers); returns the
+        per-whisker `still` flags (see `rest_statistics`). A whisker that was not still keeps the
+        rest offset of the tracks' zero (the tracker's rest baseline) instead of the frames' median."""
         xy = np.stack([np.asarray(dx, float), np.asarray(dy, float)], axis=-1)   # (F, n, 2)
         if xy.ndim != 3 or xy.shape[1] != self.n or xy.shape[0] < 3:
             raise StateInputError(f"calibration needs at least 3 rest frames of {self.n} whiskers")
-        with np.errstate(all="ignore"):
-            med = np.nanmedian(xy, axis=0)
-            mad = np.nanmedian(np.abs(xy - med), axis=0)
+        med, sigma, still = rest_statistics(xy, self.p)
         if not np.all(np.isfinite(med)):
             raise StateInputError("a whisker has no valid marker in the rest frames")
-        self.rest = med
-        self.sigma = np.maximum(1.4826 * mad, self.p.noise_floor_px)
+        self.rest = np.where(still[:, None], med, 0.0)
+        self.sigma = sigma
+        self.still = still
         self.ready = True
+        return still
 
     def update(self, t_s, dx, dy, expected=None) -> np.ndarray:
         dx, dy = _frame(dx, dy, self.n)
@@ -257,6 +313,9 @@ class AdaptiveEstimator:
             arr = np.array(self._learn)
             self.calibrate(arr[..., 0], arr[..., 1])      # then this frame is judged too
             self._past = [(self._t_prev, arr[-2])] if len(arr) > 1 else [(t, xy.copy())]
+        if self._t_prev is None:           # calibrated beforehand (label_recording): judge from frame 0
+            self._t_prev = t
+            self._past = [(t, np.where(np.isfinite(xy), xy, self.rest))]
         dt = t - self._t_prev
         self._t_prev = t
         ok = np.all(np.isfinite(xy), axis=1)
@@ -314,6 +373,110 @@ def make_estimator(method: str, n: int):
         raise StateInputError(f"unknown state method {method!r}; use one of {', '.join(ESTIMATORS)}") from None
 
 
+class StatesUndecided(StateInputError):
+    """The recording does not let the estimator decide (too few frames, no rest reference)."""
+
+
+def _still_windows(t_s, xy, p: AdaptiveParams):
+    """Start/stop frame indices of every learn_s-long window (stride: a quarter of it) of `xy`."""
+    T = len(t_s)
+    k = 0
+    out = []
+    while k < T:
+        stop = int(np.searchsorted(t_s, t_s[k] + p.learn_s, side="left"))
+        stop = max(stop, k + p.learn_frames)
+        if stop > T:
+            break
+        out.append((k, stop))
+        k += max(1, (stop - k) // 4)
+    return out
+
+
+def _ids(ws) -> str:
+    return ", ".join(str(w) for w in ws) if len(ws) < 3 or list(ws) != list(range(ws[0], ws[-1] + 1)) \
+        else f"{ws[0]}-{ws[-1]}"
+
+
+def label_recording(method: str, t_s, dx, dy, *, window: int = 30, params: AdaptiveParams | None = None,
+                    expected=None) -> tuple[np.ndarray, list[str]]:
+    """Labels (frames x whiskers) of a whole recording, and notes (one line each) on how the rest
+    reference was found. Offline: every frame, the first ones included, is judged.
+
+    authors: their streaming method as it is (its first `window` frames are rest by construction).
+    adaptive: calibrated before the first frame, per whisker, from (1) the first learn_s seconds if
+    the whisker is still there; else (2) the still learn_s window nearest the tracks' zero; else
+    (3) the tracks' zero itself (the tracker's rest baseline) when the whisker comes back within
+    the contact threshold of it (noise from second differences). Raises `StatesUndecided` (one
+    line) when the recording is too short to learn the noise, or a whisker has none of the three:
+    then nothing tells a held contact from a displaced rest."""
+    t_s = np.asarray(t_s, dtype=float)
+    dx = np.asarray(dx, dtype=float)
+    dy = np.asarray(dy, dtype=float)
+    if dx.ndim != 2 or dx.shape != dy.shape or t_s.shape != (dx.shape[0],):
+        raise StateInputError(f"need time (T,) and dx, dy (T, whiskers); got {t_s.shape}, {dx.shape}, {dy.shape}")
+    T, n = dx.shape
+    if method == "authors":
+        if T <= window:
+            raise StatesUndecided(f"{T} frames: the authors' method labels its first {window} frames rest by "
+                                  f"construction and needs more than {window} to decide anything")
+        return run_estimator(AuthorsEstimator(n, AuthorsParams(window=window)), t_s, dx, dy, expected), []
+    if method != "adaptive":
+        raise StateInputError(f"unknown state method {method!r}; use one of {', '.join(ESTIMATORS)}")
+    est = AdaptiveEstimator(n, params)
+    p = est.p
+    if T < p.learn_frames:
+        raise StatesUndecided(f"{T} frames: the adaptive estimator needs at least {p.learn_frames} frames "
+                              f"to learn the tracking noise")
+    xy = np.stack([dx, dy], axis=-1)
+    wins = _still_windows(t_s, xy, p) or [(0, T)]
+    a, b = wins[0]
+    med, sigma, still = rest_statistics(xy[a:b], p)
+    rest = np.where(still[:, None], med, np.nan)
+    whole_sigma = noise_sigma(xy)
+    found, zero = [], []
+    moved = [w for w in range(n) if not still[w]]
+    undecided = []
+    for w in moved:
+        best = None
+        for a, b in wins[1:]:
+            m, sg, st_ = rest_statistics(xy[a:b, w:w + 1], p)
+            if st_[0] and (best is None or np.hypot(*m[0]) < np.hypot(*best[0])):
+                best = (m[0], sg[0])
+        if best is not None:
+            rest[w], sigma[w] = best
+            found.append(w)
+            continue
+        sg = whole_sigma[w]
+        sg = np.maximum(np.where(np.isfinite(sg), sg, p.noise_floor_px), p.noise_floor_px)
+        thr = max(p.contact_on * float(np.hypot(*sg)), p.contact_min_px)
+        with np.errstate(invalid="ignore"):
+            closest = np.nanmin(np.hypot(xy[:, w, 0], xy[:, w, 1])) if np.any(np.isfinite(xy[:, w])) else np.inf
+        if closest <= thr:
+            rest[w], sigma[w] = 0.0, sg
+            zero.append(w)
+        else:
+            undecided.append((w, closest))
+    if undecided:
+        w, c = undecided[0]
+        raise StatesUndecided(
+            f"no rest segment for whisker(s) {', '.join(str(u[0]) for u in undecided)}: never still for "
+            f"{p.learn_s:g} s and never back at the tracks' zero (whisker {w} stays {c:.1f} px away), so a held "
+            f"contact cannot be told from a displaced rest; record rest frames first")
+    notes = []
+    if found:
+        notes.append(f"whisker(s) {_ids(found)} moving in the first {p.learn_s:g} s: rest learnt from a later "
+                     f"still stretch")
+    if zero:
+        notes.append(f"whisker(s) {_ids(zero)} never still for {p.learn_s:g} s: rest = the tracks' zero (the "
+                     f"tracker's rest baseline), which they pass within the contact threshold")
+    est.rest = rest
+    est.sigma = sigma
+    est.still = still
+    est.ready = True
+    est._t0 = float(t_s[0])
+    return run_estimator(est, t_s, dx, dy, expected), notes
+
+
 def state_scores(truth, labels) -> dict:
     """Per-state accuracy and latency of `labels` against `truth` (both frames x whiskers).
 
@@ -348,4 +511,25 @@ def state_scores(truth, labels) -> dict:
         out["latency"][name] = lat
         out["missed"][name] = missed
         out["runs"][name] = runs
+    return out
+
+
+def precision_recall(truth, labels) -> dict:
+    """Per-class precision, recall and support of `labels` against `truth` (same-shape int arrays).
+
+    precision[s] = frames labelled s whose truth is s / frames labelled s (NaN when none is
+    labelled s); recall[s] = frames of truth s labelled s / frames of truth s (NaN when none);
+    support[s] = frames of truth s; predicted[s] = frames labelled s."""
+    truth = np.asarray(truth).ravel()
+    labels = np.asarray(labels).ravel()
+    if truth.shape != labels.shape:
+        raise StateInputError(f"truth and labels differ in size ({truth.size}, {labels.size})")
+    out = {"precision": {}, "recall": {}, "support": {}, "predicted": {}}
+    for s, name in enumerate(STATE_NAMES):
+        tp = int(np.sum((truth == s) & (labels == s)))
+        n_true, n_pred = int(np.sum(truth == s)), int(np.sum(labels == s))
+        out["precision"][name] = tp / n_pred if n_pred else float("nan")
+        out["recall"][name] = tp / n_true if n_true else float("nan")
+        out["support"][name] = n_true
+        out["predicted"][name] = n_pred
     return out

@@ -467,12 +467,13 @@ def scene_with_overrides(scene: Scene, overrides) -> Scene:
     return scene_from_dict(data)
 
 
-def scene_design(scene: Scene, extra_overrides: tuple[str, ...] = ()):
-    """The validated Design the scene names (file relative to the scene, then overrides)."""
+def scene_design(scene: Scene, extra_overrides: tuple[str, ...] = (), design_file=None):
+    """The validated Design the scene names (file relative to the scene, then overrides);
+    `design_file` (e.g. `whisker sim --design`) replaces the scene's design file."""
     from whisker.design import DesignError, load_design
 
     f = scene.design.file
-    path = (Path(scene.base_dir) / f) if f else None
+    path = Path(design_file) if design_file else ((Path(scene.base_dir) / f) if f else None)
     try:
         return load_design(path, [*scene.design.set, *extra_overrides])
     except DesignError as err:

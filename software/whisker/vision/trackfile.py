@@ -44,14 +44,35 @@ class Tracks:
     layout: str             # "whisker-track" or "authors"
 
 
+class _Bad(ValueError):
+    pass
+
+
 def _float(v: str) -> float:
-    try:
-        return float(v) if v != "" else float("nan")
-    except ValueError:
+    """An empty cell is a lost marker (NaN); anything else must be a finite number."""
+    v = v.strip()
+    if v == "":
         return float("nan")
+    try:
+        x = float(v)
+    except ValueError:
+        raise _Bad(f"{v[:20]!r} is not a number") from None
+    if not np.isfinite(x):
+        raise _Bad(f"{v[:20]!r} is not finite (a lost marker is an empty cell)")
+    return x
 
 
-def read_tracks(path) -> Tracks:
+def read_tracks(path, n_whiskers: int | None = None) -> Tracks:
+    """Read `path` (a tracks CSV or a session folder holding tracks.csv). `n_whiskers`: the design's
+    whisker count; a whisker index (or dx_i column) at or beyond it is refused. Every numeric cell
+    must be empty (lost marker) or a finite number; a whisker with no finite sample is refused."""
+    try:
+        return _read_tracks(Path(path), n_whiskers)
+    except _Bad as err:
+        raise TracksError(f"tracks file {path}: {err}") from None
+
+
+def _read_tracks(path: Path, n_whiskers) -> Tracks:
     path = Path(path)
     if path.is_dir():
         path = path / "tracks.csv"           # a `whisker record` session folder
@@ -75,8 +96,11 @@ def read_tracks(path) -> Tracks:
             raise TracksError(f"tracks file {path}: frame and whisker must be integers") from None
         if frame.size == 0 or whisker.min() < 0:
             raise TracksError(f"tracks file {path}: no rows or a negative whisker index")
+        if n_whiskers is not None and whisker.max() >= n_whiskers:
+            raise TracksError(f"tracks file {path}: whisker index {int(whisker.max())} is outside the design's "
+                              f"{n_whiskers} whiskers (0-{n_whiskers - 1}); give the matching --design/--set")
         frames, fidx = np.unique(frame, return_inverse=True)
-        n = int(whisker.max()) + 1
+        n = int(whisker.max()) + 1 if n_whiskers is None else int(n_whiskers)
         t = np.full(frames.size, np.nan)
         dx = np.full((frames.size, n), np.nan)
         dy = np.full((frames.size, n), np.nan)
@@ -94,6 +118,9 @@ def read_tracks(path) -> Tracks:
             xs, ys = ["dx"], ["dy"]
         if not xs or len(xs) != len(ys):
             raise TracksError(f"tracks file {path}: needs dx, dy or matching dx_i, dy_i columns beside Time")
+        if n_whiskers is not None and len(xs) > n_whiskers:
+            raise TracksError(f"tracks file {path}: {len(xs)} whiskers (dx columns) but the design has "
+                              f"{n_whiskers}; give the matching --design/--set")
         t = np.array([_float(r[col["Time"]]) for r in body])
         dx = np.array([[_float(r[col[h]]) for h in xs] for r in body])
         dy = np.array([[_float(r[col[h]]) for h in ys] for r in body])
@@ -103,6 +130,10 @@ def read_tracks(path) -> Tracks:
                           "`whisker track` CSV or the authors' Time,dx,dy")
     if t.size == 0:
         raise TracksError(f"tracks file {path} has no complete data rows")
+    dead = [w for w in range(dx.shape[1]) if not np.any(np.isfinite(dx[:, w]) & np.isfinite(dy[:, w]))]
+    if dead:
+        raise TracksError(f"tracks file {path}: whisker(s) {', '.join(map(str, dead[:8]))} have no valid "
+                          f"(finite) displacement in any of the {t.size} frames")
     if not np.all(np.isfinite(t)):
         raise TracksError(f"tracks file {path}: a frame has no valid time")
     if np.any(np.diff(t) <= 0):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from pathlib import Path
@@ -27,6 +28,13 @@ def build(design, out, force, quiet):
     A design that fails a check is refused: exit status 1, one line naming the parameters and
     the violated constraint, and the output folder left exactly as it was.
     """
+    from whisker.cliutil import check_out_path
+    from whisker.design.bounds import refusal
+
+    check_out_path(out, "cad build", folder=True)
+    why = refusal(design)                    # closed-form bounds first: no solid for a design they rule out
+    if why:
+        fail(f"design refused before building: {why}", code=1)
     from whisker.cad.buildkey import FORMATS, up_to_date
 
     out = Path(out)
@@ -37,59 +45,118 @@ def build(design, out, force, quiet):
 
     t0 = time.perf_counter()
     say = None if quiet else (lambda msg: click.echo(f"  {msg}", err=True))
-    try:
-        manifest = run_build(design, out, FORMATS, progress=say)
-    except DesignRefused as err:
-        fail(str(err), code=1)
+    from whisker.cliutil import exclusive_out
+
+    with exclusive_out(out, "cad build"):
+        try:
+            manifest = run_build(design, out, FORMATS, progress=say)
+        except DesignRefused as err:
+            fail(str(err), code=1)
+        except OSError as err:
+            fail(f"cad build: cannot write the parts into {out}/: {err.strerror or err}", code=1)
     n = sum(len(p["checks"]) for p in manifest["parts"].values())
     click.echo(f"built {len(manifest['parts'])} parts for {design.whiskers.count} whiskers at "
                f"{design.whiskers.ring_radius:g} mm into {out}/: {n} checks passed "
                f"({time.perf_counter() - t0:.1f} s)")
 
 
+def _num(text: str, what: str, kind=float):
+    try:
+        v = kind(text.strip())
+    except ValueError:
+        raise click.BadParameter(f"{text.strip()!r} is not {'an integer' if kind is int else 'a number'} ({what})")
+    if not math.isfinite(v):
+        raise click.BadParameter(f"{text.strip()!r} is not a finite number ({what})")
+    return v
+
+
 def _int_range(text: str) -> list[int]:
-    a, _, b = text.partition("..")
-    return list(range(int(a), int(b or a) + 1))
+    """a..b (a <= b), or a single count; refuses text, an inverted range, counts below 2."""
+    a, sep, b = text.partition("..")
+    lo = _num(a, "counts are a..b", int)
+    hi = _num(b, "counts are a..b", int) if sep else lo
+    if hi < lo:
+        raise click.BadParameter(f"{text!r} is an inverted range: give a..b with a <= b, e.g. 2..16")
+    if lo < 2 or hi > 64:
+        raise click.BadParameter(f"{text!r}: whisker counts must be within 2..64")
+    return list(range(lo, hi + 1))
 
 
 def _float_list(text: str) -> list[float]:
+    """a..b:step (a <= b, step > 0) or a,b,c, in mm; refuses text, NaN, an inverted range, a zero step."""
     if ".." in text:  # start..stop:step
         rng, _, step = text.partition(":")
         a, _, b = rng.partition("..")
-        a, b, s = float(a), float(b), float(step or 1)
-        return [round(a + i * s, 6) for i in range(int(round((b - a) / s)) + 1)]
-    return [float(x) for x in text.split(",")]
+        a, b = _num(a, "radii are a..b:step or a,b,c"), _num(b, "radii are a..b:step or a,b,c")
+        s = _num(step, "the step of a..b:step") if step.strip() else 1.0
+        if b < a:
+            raise click.BadParameter(f"{text!r} is an inverted range: give a..b:step with a <= b, e.g. 4..25:1")
+        if s <= 0:
+            raise click.BadParameter(f"{text!r}: the step must be > 0 mm, e.g. 4..25:1")
+        n = int(round((b - a) / s)) + 1
+        if n > 10000:
+            raise click.BadParameter(f"{text!r} gives {n} radii; at most 10000")
+        vals = [round(a + i * s, 6) for i in range(n)]
+    else:
+        vals = [_num(x, "radii are a..b:step or a,b,c") for x in text.split(",")]
+    if min(vals) <= 0 or max(vals) > 1000:
+        raise click.BadParameter(f"{text!r}: ring radii must be within (0, 1000] mm")
+    return vals
 
 
 @cli.command()
 @click.option("--design", "design_file", type=click.Path(dir_okay=False), default=None,
               help="Design TOML file (default: hw/sensor.toml).")
 @click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE", help="Override a design value.")
-@click.option("--counts", default="2..16", show_default=True, help="Whisker counts, a..b.")
-@click.option("--radii", default="4..25:1", show_default=True, help="Ring radii in mm: a..b:step or a,b,c.")
-@click.option("--out", type=click.Path(file_okay=False), default="exports/sweep", show_default=True)
-@click.option("--workers", default=-1, show_default=True, help="Parallel processes (joblib; -1 = every core).")
+@click.option("--counts", default="2..16", show_default=True, help="Whisker counts, a..b (a <= b) or one count.")
+@click.option("--radii", default="4..25:1", show_default=True,
+              help="Ring radii in mm: a..b:step (a <= b, step > 0 mm) or a,b,c.")
+@click.option("--out", type=click.Path(file_okay=False), default="exports/sweep", show_default=True,
+              help="Folder for sweep.csv, sweep.md and sweep.png.")
+@click.option("--workers", type=int, default=-1, show_default=True,
+              help="Parallel processes (joblib): a positive count, or -1 = every core.")
 def sweep(design_file, overrides, counts, radii, out, workers):
     """Build and check every (count, radius) pair: a table and a plot of the feasible region.
 
     Every size set to "auto" in the design follows the ring. Each refused cell names the physical
     conflict behind it; the plot draws the small-ring bound (neighbouring coils at full inward swing).
     """
+    from whisker.cliutil import check_out_path, exclusive_out
+    from whisker.design import DesignError, load_design
+
+    try:
+        counts_l = _int_range(counts)
+    except click.BadParameter as err:
+        fail(f"cad sweep: --counts: {err.message}")
+    try:
+        radii_l = _float_list(radii)
+    except click.BadParameter as err:
+        fail(f"cad sweep: --radii: {err.message}")
+    if workers == 0 or workers < -1:
+        fail(f"cad sweep: --workers {workers}: give a positive number of processes, or -1 for every core")
+    check_out_path(out, "cad sweep", folder=True)
+    try:
+        load_design(design_file, tuple(overrides))
+    except DesignError as err:
+        fail(f"design refused: {err}")
     from tqdm import tqdm
 
     from whisker.cad.sweep import sweep as run_sweep, write_reports
 
-    counts_l, radii_l = _int_range(counts), _float_list(radii)
     bar = tqdm(total=len(counts_l) * len(radii_l), desc="designs", unit="design", file=sys.stderr)
 
     def progress(i, n):
         bar.update(i - bar.n)
 
     t0 = time.perf_counter()
-    rows = run_sweep(counts_l, radii_l, design_file, tuple(overrides), workers, progress)
-    bar.close()
-    per = (time.perf_counter() - t0) / max(1, len(rows))
-    paths = write_reports(rows, Path(out))
+    with exclusive_out(out, "cad sweep"):
+        rows = run_sweep(counts_l, radii_l, design_file, tuple(overrides), workers, progress)
+        bar.close()
+        per = (time.perf_counter() - t0) / max(1, len(rows))
+        try:
+            paths = write_reports(rows, Path(out))
+        except OSError as err:
+            fail(f"cad sweep: cannot write the tables into {out}/: {err.strerror or err}", code=1)
     ok = sum(r["feasible"] for r in rows)
     click.echo(f"{ok} of {len(rows)} designs feasible ({per:.2f} s per design); wrote "
                + ", ".join(str(p) for p in paths))
@@ -109,17 +176,36 @@ def assembly_images(design, out, size, page):
     Parts already in place are grey, the step's new parts orange, moved back along their
     insertion path (drawn as a dashed arrow); the mount and mould are cut open on the x-z plane.
     """
+    from whisker.cliutil import check_out_path, exclusive_out
+
+    try:                                         # every option checked before the CAD kernel loads
+        w, h = (int(v) for v in size.lower().split("x"))
+        if w < 100 or h < 100 or w > 10000 or h > 10000:
+            raise ValueError
+    except ValueError:
+        fail(f"--size {size!r}: expected WIDTHxHEIGHT of 100x100 to 10000x10000 pixels, e.g. 900x700")
+    if page:
+        begin = "<!-- BEGIN SEQUENCE TABLE"
+        try:
+            text = Path(page).read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            fail(f"--page {page}: not UTF-8 text; give a Markdown page such as docs/assembly.md")
+        except OSError as err:
+            fail(f"--page {page}: cannot read it ({err.strerror or err})", code=1)
+        if begin not in text:
+            fail(f"--page {page}: no sequence table block ({begin} ... END SEQUENCE TABLE comments) to rewrite")
+    check_out_path(out, "cad assembly-images", folder=True)
     from whisker.cad.assembly_images import update_page, write_assembly_images
     from whisker.design import DesignError
 
+    from tqdm import tqdm
+
+    bar = tqdm(desc="assembly images", unit="image", file=sys.stderr)
     try:
-        w, h = (int(v) for v in size.lower().split("x"))
-        if w < 100 or h < 100:
-            raise ValueError
-    except ValueError:
-        fail(f"--size {size!r}: expected WIDTHxHEIGHT of at least 100x100 pixels, e.g. 900x700")
-    try:
-        paths = write_assembly_images(design, Path(out), (w, h), progress=lambda p: click.echo(f"  wrote {p}", err=True))
+        with exclusive_out(out, "cad assembly-images"):
+            paths = write_assembly_images(design, Path(out), (w, h),
+                                          progress=lambda p: (bar.update(), bar.set_postfix_str(Path(p).name)))
+        bar.close()
         if page:
             changed = update_page(Path(page), design)
             click.echo(f"  {'updated' if changed else 'unchanged'}: the sequence table in {page}", err=True)

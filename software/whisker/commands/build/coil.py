@@ -246,7 +246,8 @@ def thermal(design, volts, duty, seconds, step, convection):
 @coil_options
 @click.option("--volts", type=float, default=None, help="Target volts across the coil (default: actuation.voltage).")
 @click.option("--amps", type=float, default=None, help="Target coil current instead (A, cold coil).")
-@click.option("--series", type=click.Choice(["E24", "E96"]), default="E24", show_default=True)
+@click.option("--series", type=click.Choice(["E24", "E96"]), default="E24", show_default=True,
+              help="Preferred-number series the series resistor is picked from (E24: 5 %, E96: 1 %).")
 @_guard
 def driver(design, volts, amps, series):
     """Bridge drop, supply needed, series resistor / divider / PWM, and the alternative drivers."""
@@ -258,7 +259,11 @@ def driver(design, volts, amps, series):
     if amps is not None:
         if volts is not None:
             fail("give --volts or --amps, not both")
+        if not (amps > 0 and math.isfinite(amps)):
+            fail(f"--amps {amps:g}: the target coil current must be a positive finite number of amperes")
         volts = amps * resistance_ohm(design, 20.0)
+    elif volts is not None and not (volts > 0 and math.isfinite(volts)):
+        fail(f"--volts {volts:g}: the target coil voltage must be a positive finite number of volts")
     rep = build_report(design, volts)
     rep["driver"] = drv.plan(design, volts, series=series)
     text = format_report(rep)
@@ -278,7 +283,7 @@ def driver(design, volts, amps, series):
               help="Also Sobol' indices with this base sample (runs = base x (factors + 2)); 0 = none.")
 @click.option("--tolerances", type=click.Path(dir_okay=False), default=None,
               help="Tolerance table (default hw/tolerances.csv): name, level, kind, min, max, unit, applies_to, source.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True, help="Random seed of the sampled builds.")
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Write tolerance.json there (atomically: a refused run leaves the old one).")
 @_guard

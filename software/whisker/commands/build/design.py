@@ -14,6 +14,31 @@ def cli():
     """Inspect the design model (hw/sensor.toml plus overrides)."""
 
 
+#: units a field's description may start with (the design model's Field descriptions and the
+#: comments of hw/sensor.toml both open with the unit: "mm, circle of rod centres")
+UNITS = ("mm", "deg", "px", "ohm", "g/cm^3", "g", "s", "V", "A", "W", "T", "C", "K", "Hz", "turns", "N/m", "mN",
+         "mm/px", "rad", "%")
+
+
+def field_unit(design, section: str, key: str) -> str:
+    """The unit of design value section.key from its Field description, which opens with it
+    ("mm, circle of rod centres" -> "mm", "W/(m^2 K), coil surface to air" -> "W/(m^2 K)"), or ""."""
+    import re
+
+    model = getattr(design, section, None)
+    field = type(model).model_fields.get(key) if model is not None else None
+    desc = (field.description or "") if field is not None else ""
+    m = re.match(r"\s*([^\s,;:(]+(?:\([^)]*\))?)", desc)
+    if m:
+        tok = m.group(1)
+        if tok in UNITS or re.search(r"[/*^]", tok):
+            return tok
+    for suffix, unit in (("_deg", "deg"), ("_px", "px"), ("_mm", "mm"), ("_s", "s"), ("_ohm", "ohm")):
+        if key.endswith(suffix):
+            return unit
+    return ""
+
+
 @cli.command()
 @design_options
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of TOML.")
@@ -50,7 +75,8 @@ def show(design, as_json):
         for key, value in vals.items():
             line = tomli_w.dumps({key: value}).strip()
             src = sources[f"{sec}.{key}"]
-            click.echo(f"{line:<40} # {src}")
+            unit = field_unit(design, sec, key)
+            click.echo(f"{line:<40} # {unit + '; ' if unit else ''}{src}")
         click.echo("")
     click.echo("# derived")
     for k, v in derived.items():

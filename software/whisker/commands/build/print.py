@@ -37,20 +37,20 @@ def _ensure_build(design, out: Path, quiet: bool) -> None:
 
 @cli.command()
 @design_options
-@click.option("--out", type=click.Path(file_okay=False), default="exports", show_default=True,
-              help="Build folder (from `whisker cad build`); built first if it holds another design.")
+@click.option("--build", "out", type=click.Path(file_okay=False), default="exports", show_default=True,
+              help="Build folder (from `whisker cad build`, STL in mm); built first if it holds another design.")
 @click.option("--coarse", is_flag=True,
               help="Slice with 0.3 mm layers, 1 perimeter, no infill: proves the parts slice, fast, but the "
                    "time and grams are NOT real estimates (used by the tests).")
 @click.option("--no-gcode", is_flag=True, help="Do not keep the G-code files (out/gcode/<part>.gcode).")
 @click.option("--quiet", "-q", is_flag=True, help="Only print the result lines.")
 def check(design, out, coarse, no_gcode, quiet):
-    """Check and slice every printable part headless; write the print report.
+    """Check and slice every printable part headless; write the print report (into the --build folder).
 
     Per part: fits the printer, `prusa-slicer --info` reports a manifold mesh with no open edges,
     admesh agrees, an overhang check decides supports, and the part slices into G-code with layers;
     the estimated print time and filament grams are read from the G-code. Writes
-    OUT/print_report.md and .json, OUT/gcode/*.gcode, and adds the results to OUT/manifest.json.
+    BUILD/print_report.md and .json, BUILD/gcode/*.gcode, and adds the results to BUILD/manifest.json.
 
     Exit status 1 if a part is not printable (one line per failed part, with the reason), 3 if
     prusa-slicer or admesh is not installed (the message says how to install it).
@@ -97,10 +97,10 @@ def check(design, out, coarse, no_gcode, quiet):
 
 @cli.command()
 @design_options
-@click.option("--out", type=click.Path(file_okay=False), default="exports", show_default=True,
-              help="Build folder (from `whisker cad build`); built first if it holds another design.")
+@click.option("--build", "out", type=click.Path(file_okay=False), default="exports", show_default=True,
+              help="Build folder (from `whisker cad build`, STL in mm); built first if it holds another design.")
 @click.option("--images", type=click.Path(file_okay=False), default=None,
-              help="Folder for the PNG files [default: OUT/preview]. `docs/images` for the README.")
+              help="Folder for the PNG files [default: BUILD/preview]. `docs/images` for the README.")
 @click.option("--size", default="900x700", show_default=True, help="Image size in pixels, WxH.")
 def preview(design, out, images, size):
     """PNG images of every printable part (as it lies on the bed) and of the assembly (cut open)."""

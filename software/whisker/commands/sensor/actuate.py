@@ -132,21 +132,39 @@ def cli(design, action, values, backend, which, start, level, volts, policy, dur
                     print_pins(act)
                 t0 = time.monotonic()
                 next_report = 0.0
+                peak = np.zeros(n)
                 while (t := time.monotonic() - t0) < duration:
+                    tilt = sim_tilt_deg(act)
+                    if tilt is not None:
+                        peak = np.where(np.abs(tilt) > np.abs(peak), tilt, peak)
                     if not quiet and t >= next_report:
                         g = act.guard
                         click.echo(f"t={t:5.1f} s  applied={np.round(act.applied, 3).tolist()}  "
-                                   f"max coil {g.temperatures.max():.1f} C (cut {g.cut_C:.0f} C)", err=True)
+                                   f"max coil {g.temperatures.max():.1f} C (cut {g.cut_C:.0f} C)"
+                                   + (f"  tilt={np.round(tilt, 2).tolist()} deg" if tilt is not None else ""),
+                                   err=True)
                         next_report += 1.0
                     time.sleep(min(0.05, max(0.0, duration - t)))
+                tilt = sim_tilt_deg(act)
+                if tilt is not None:
+                    peak = np.where(np.abs(tilt) > np.abs(peak), tilt, peak)
                 act.neutral()
                 if show_pins:
                     print_pins(act)
                 g = act.guard
                 click.echo(f"done: peak coil temperature {g.peak_C.max():.1f} C (estimated), "
                            f"guard trips {g.trips.tolist()}", err=True)
+                if tilt is not None:
+                    click.echo(f"simulated tilt at the end of the drive (deg, + = retracted): "
+                               f"{np.round(tilt, 2).tolist()}; largest reached: {np.round(peak, 2).tolist()}", err=True)
     except (RatingError, ValueError, RuntimeError) as err:
         fail(f"actuate: {err}")
+
+
+def sim_tilt_deg(act):
+    """The simulated whiskers' radial tilt, deg (+ = retracted), when the backend is the simulator; else None."""
+    angles = getattr(act.backend, "angles_deg", None)
+    return None if angles is None else angles()
 
 
 def run_sequence_file(design, path, backend, policy, quiet):
@@ -169,7 +187,9 @@ def run_sequence_file(design, path, backend, policy, quiet):
                 def report(t, phase):
                     if phase != last[0] and not quiet:
                         last[0] = phase
-                        click.echo(f"t={t:7.2f} s  {phase:12s} applied={[round(float(x), 3) for x in act.applied]}",
+                        tilt = sim_tilt_deg(act)
+                        click.echo(f"t={t:7.2f} s  {phase:12s} applied={[round(float(x), 3) for x in act.applied]}"
+                                   + (f"  tilt={[round(float(x), 2) for x in tilt]} deg" if tilt is not None else ""),
                                    err=True)
 
                 run_sequence(act, steps, on_tick=report)

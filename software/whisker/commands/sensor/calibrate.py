@@ -173,19 +173,22 @@ def board(design, out_dir, dpi):
 
     Print the PDF at 100 % ("actual size", no fit-to-page) and measure the 10 mm scale bar.
     """
+    from whisker.cliutil import check_out_path, exclusive_out
+
+    check_out_path(out_dir, "calibrate board", folder=True)
     from whisker.bringup.charuco import CalibrationInputError, board_for, board_files
     from whisker.files import publish, staging_dir
 
+    out = Path(out_dir)
     try:
         spec = board_for(design)
-        out = Path(out_dir)
-        with staging_dir(out) as tmp:
+        with exclusive_out(out, "calibrate board"), staging_dir(out) as tmp:
             names = board_files(spec, tmp, dpi)
             publish(tmp, out, names)
     except CalibrationInputError as err:
         fail(f"board: {err}")
     except OSError as err:
-        fail(f"board: {err}", 1)
+        fail(f"board: cannot write the board files into {out}/: {err.strerror or err}", 1)
     w, h = spec.size_mm
     click.echo(f"{out}/charuco_board.pdf: {spec.squares_x} x {spec.squares_y} squares of {spec.square_mm:g} mm "
                f"({w:g} x {h:g} mm, {spec.dictionary} markers of {spec.marker_mm:g} mm); print at 100 %")

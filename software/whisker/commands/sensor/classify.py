@@ -102,10 +102,18 @@ def train(design, data, objects, hidden, epochs, lr, batch_size, kind, protocol,
     """Train the classifier and save it with the library versions it was trained with."""
     import numpy as np
 
+    from whisker.cliutil import check_out_path, exclusive_out
+
+    check_out_path(out, "classify train")
+    if report:
+        check_out_path(report, "classify train", folder=True)
+
     from whisker.data import classify as C
     from whisker.data.dataset import DatasetError, augment_rotations
     from whisker.files import atomic_write_json, atomic_write_text
 
+    lock = exclusive_out(out, "classify train")
+    lock.__enter__()
     from whisker.data.models import make_model
 
     ds = _load(data, objects, design)
@@ -144,7 +152,12 @@ def train(design, data, objects, hidden, epochs, lr, batch_size, kind, protocol,
                                                               "classes": list(ds.classes), "confusion": cm.tolist()})
             C.plot_confusion(cm, ds.classes, Path(report) / "confusion.png",
                              f"{protocol}, seed {seed}: accuracy {acc:.3f}")
-    C.save_model(out, model, ds, info)
+    try:
+        C.save_model(out, model, ds, info)
+    except OSError as err:
+        fail(f"classify train: cannot write the model {out}: {err.strerror or err}", code=1)
+    finally:
+        lock.__exit__(None, None, None)
     click.echo(f"model -> {out}")
 
 
@@ -213,6 +226,7 @@ def evaluate(design, data, objects, hidden, epochs, lr, batch_size, model_file, 
 
 
 @cli.command()
+@design_options
 @click.option("--model", "model_file", type=click.Path(dir_okay=False), required=True, help="Saved model (.joblib).")
 @click.option("--input", "input_file", type=click.Path(dir_okay=False), required=True,
               help="A CSV of samples (one per row, the authors' layout) or, with --tracks, a tracks CSV "
@@ -221,8 +235,9 @@ def evaluate(design, data, objects, hidden, epochs, lr, batch_size, model_file, 
 @click.option("--invalid", type=click.Choice(["error", "zero", "drop"]), default="error", show_default=True,
               help="Tracks only: whiskers the tracker lost: refuse, impute rest (0, 0), or drop the sample.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON lines instead of a table.")
-def predict(model_file, input_file, tracks, invalid, as_json):
-    """Predict the object for each sample; prints label and probability per sample."""
+def predict(design, model_file, input_file, tracks, invalid, as_json):
+    """Predict the object for each sample; prints a header, label and probability per sample, and the
+    count per predicted class. The model must have been trained for the design's whisker count."""
     import numpy as np
 
     from whisker.data import classify as C
@@ -230,6 +245,9 @@ def predict(model_file, input_file, tracks, invalid, as_json):
 
     try:
         bundle = C.load_model(model_file)
+        if bundle["n_whiskers"] != design.whiskers.count:
+            raise DatasetError(f"{model_file} was trained for {bundle['n_whiskers']} whiskers, the design has "
+                               f"{design.whiskers.count}; give the matching --design/--set")
         if tracks:
             ds = load_tracks(input_file, "unknown", records_per_sample=bundle["n_records"], invalid=invalid)
             if ds.n_whiskers != bundle["n_whiskers"]:
@@ -240,9 +258,15 @@ def predict(model_file, input_file, tracks, invalid, as_json):
         labels, proba = C.predict(bundle, X, valid)
     except (DatasetError, OSError) as err:
         fail(f"prediction refused: {err}")
+    from collections import Counter
+
+    if not as_json:
+        click.echo("sample\tlabel\tprobability")
     for i, (lab, p) in enumerate(zip(labels, proba)):
         conf = float(np.max(p))
         if as_json:
             click.echo(json.dumps({"sample": i, "label": str(lab), "probability": round(conf, 4)}))
         else:
             click.echo(f"{i}\t{lab}\t{conf:.3f}")
+    counts = Counter(str(x) for x in labels)
+    click.echo(f"{len(labels)} sample(s): " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())), err=True)

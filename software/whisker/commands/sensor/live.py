@@ -12,9 +12,10 @@ import click
 from whisker.cliutil import design_options, fail
 
 
-def open_live_source(source: str, design, fps: float, max_frames):
-    """A frame source: `sim` renders the simulator's whiskers (at rest unless driven); anything
-    else goes to whisker.vision.camera.open_source. Returns (source, sim backend or None)."""
+def open_live_source(source: str, design, fps: float, max_frames, contacts=()):
+    """A frame source: `sim` renders the simulator's whiskers (at rest unless `contacts`, a list of
+    whisker.drive.simulated.Contact, push them); anything else goes to
+    whisker.vision.camera.open_source. Returns (source, sim backend or None)."""
     from whisker.vision.camera import open_source
 
     if source == "sim":
@@ -22,6 +23,8 @@ def open_live_source(source: str, design, fps: float, max_frames):
         from whisker.sim import actuation_backend
 
         backend = actuation_backend(design)
+        for c in contacts:
+            backend.add_contact(c)
         return SimCamera(design, backend, fps=fps, count=max_frames), backend
     return open_source(source, design), None
 
@@ -30,9 +33,14 @@ def open_live_source(source: str, design, fps: float, max_frames):
 @design_options
 @click.option("--source", required=True, metavar="SOURCE",
               help="picamera, a camera index, a video file, an image folder, synthetic[:N], or sim (the simulator).")
-@click.option("--fps", type=click.FloatRange(1, 240), default=15.0, show_default=True, help="Frame rate of --source sim.")
-@click.option("--method", type=click.Choice(["authors", "adaptive"]), default="adaptive", show_default=True,
-              help="State estimator (docs/states.md).")
+@click.option("--fps", type=click.FloatRange(1, 240), default=15.0, show_default=True,
+              help="Frame rate of --source sim, frames/s.")
+@click.option("--contact", "contacts", multiple=True, metavar="W:START-END:DEG",
+              help="--source sim: an object pushes whisker W's tip to DEG deg of radial tilt (+ retraction side) "
+                   "from START to END s after the start, e.g. 0:2-4:5 (repeatable). Without it the simulated "
+                   "whiskers are never touched: every frame is rest.")
+@click.option("--estimator", "method", type=click.Choice(["authors", "adaptive"]), default="adaptive",
+              show_default=True, help="State estimator (docs/states.md).")
 @click.option("--tracker", "track_method", type=click.Choice(["paper", "contour", "blob", "roi", "fit"]), default="roi",
               show_default=True, help="Marker tracking method (docs/tracking.md).")
 @click.option("--rest-frames", type=click.IntRange(1, 1000), default=5, show_default=True,
@@ -44,7 +52,7 @@ def open_live_source(source: str, design, fps: float, max_frames):
 @click.option("--calibration", type=click.Path(dir_okay=False), default=None, help="Lens calibration .npz.")
 @click.option("--mask", type=click.Path(dir_okay=False), default=None, help="Region-of-interest image.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary on stderr.")
-def cli(design, source, fps, method, track_method, rest_frames, record, show, max_frames, calibration, mask, quiet):
+def cli(design, source, fps, contacts, method, track_method, rest_frames, record, show, max_frames, calibration, mask, quiet):
     """Track the markers and label every whisker rest / contact / dynamic, live.
 
     Writes one JSON line per frame on stdout ({"frame", "t", "states", "dx", "dy", "valid", "force_mN",
@@ -56,28 +64,44 @@ def cli(design, source, fps, method, track_method, rest_frames, record, show, ma
 
     import numpy as np
 
+
     from whisker.vision.camera import SourceError
     from whisker.sensing.contact_force import ForceModel
     from whisker.sensing.live import LivePipeline, annotate
     from whisker.sensing.states import make_estimator
     from whisker.vision.tracking import CalibrationError, Tracker
 
+    from whisker.drive.simulated import Contact
+
+    if contacts and source != "sim":
+        fail("live: --contact schedules objects in the simulator: use it with --source sim")
+    try:
+        schedule = [Contact.parse(c) for c in contacts]
+        for c in schedule:
+            if c.whisker >= design.whiskers.count:
+                raise ValueError(f"contact {c.whisker}: the design has whiskers 0-{design.whiskers.count - 1}")
+    except ValueError as err:
+        fail(f"live: --contact: {err}")
+    if source == "sim" and not schedule and not quiet:
+        click.echo("live: --source sim without --contact: nothing touches the simulated whiskers", err=True)
     if show and not os.environ.get("DISPLAY") and sys.platform.startswith("linux"):
         fail("live: --show needs a display (DISPLAY is unset); use --record FILE.mp4", code=1)
     try:
         tracker = Tracker(design, track_method, calibration=calibration, mask=mask)
-        src, backend = open_live_source(source, design, fps, None if max_frames is None else max_frames + rest_frames)
+        src, backend = open_live_source(source, design, fps, None if max_frames is None else max_frames + rest_frames,
+                                        schedule)
     except (ValueError, SourceError) as err:
         fail(f"live: {err}")
     except OSError as err:
         fail(f"live: {err}", code=1)
     frames = iter(src)
-    writer = rec_tmp = None
+    writer = rec_tmp = pipe = None
     n_frames, t_proc = 0, 0.0
     try:
         rest = list(itertools.islice(frames, rest_frames))
-        if not rest:
-            fail("live: no frames from the source for the rest baseline")
+        if len(rest) < rest_frames:
+            fail(f"live: the source {source} gave {len(rest)} frame(s), fewer than the {rest_frames} --rest-frames "
+                 f"for the rest baseline: no states", code=1)
         tracker.calibrate(rest)
         pipe = LivePipeline(tracker, make_estimator(method, tracker.n), force_model=ForceModel.from_design(design))
         stream = frames if max_frames is None else itertools.islice(frames, max_frames)
@@ -119,6 +143,11 @@ def cli(design, source, fps, method, track_method, rest_frames, record, show, ma
         if writer is not None:
             writer.release()
             os.replace(rec_tmp, record)
+    ready = pipe is not None and pipe.estimator.ready
+    if n_frames == 0 or not ready:
+        fail(f"live: the source ended after {n_frames} frame(s) past the rest baseline, before the {method} "
+             f"estimator could decide ({pipe.estimator.needs if pipe else 'frames'}): every label was its "
+             f"initial rest", code=1)
     if not quiet:
         click.echo(f"live: {n_frames} frames, {1e3 * t_proc / max(n_frames, 1):.2f} ms/frame tracking + states"
                    + (f"; wrote {record}" if record and writer is not None else ""), err=True)

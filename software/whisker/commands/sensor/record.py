@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import time
 
 import click
 
@@ -10,6 +11,9 @@ from whisker.cliutil import design_options, fail
 from whisker.commands.sensor.actuate import level_options
 from whisker.commands.sensor.grasp import build_sequence, sequence_options
 
+
+#: how a guard event is printed
+GUARD_WORDS = {"derate": "derates", "derate-end": "stops derating", "cut": "cuts", "resume": "restores"}
 
 #: a --duration at least this long is announced before recording starts, s
 LONG_RECORDING_S = 60.0
@@ -28,8 +32,8 @@ LONG_RECORDING_S = 60.0
               help="Stop after this many frames.")
 @click.option("--duration", type=click.FloatRange(0, 24 * 3600, min_open=True), default=None,
               help="Stop after this many seconds (at most a day).")
-@click.option("--method", type=click.Choice(["paper", "contour", "blob", "roi"]), default="roi",
-              show_default=True, help="Tracking method (see whisker track --help).")
+@click.option("--tracker", "method", type=click.Choice(["paper", "contour", "blob", "roi"]), default="roi",
+              show_default=True, help="Marker tracking method (see whisker track --help).")
 @click.option("--model", type=click.Choice(["paper", "exact"]), default="paper", show_default=True,
               help="Deflection geometry for the tracks table.")
 @click.option("--rest-frames", type=click.IntRange(1, 1000), default=5, show_default=True,
@@ -75,8 +79,9 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
 
     from tqdm import tqdm
 
+
     from whisker.drive.actuation import deenergise_on_signals, open_actuator
-    from whisker.drive.sequences import ThreadedSequenceRunner
+    from whisker.drive.sequences import SequenceRunner, ThreadedSequenceRunner
     from whisker.vision.camera import SourceError, open_source
     from whisker.commands.sensor.actuate import resolve_level
     from whisker.drive.guard import RatingError
@@ -109,13 +114,16 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
         except ValueError as err:
             fail(f"record: {err}")
     sim_backend = None
+    clock = time.monotonic
     if source == "sim":
         if backend not in ("sim", "none"):
             fail("record: --source sim films the simulator: use --backend sim (or none)")
-        from whisker.drive.hbridge import open_backend
+        from whisker.drive.simulated import SimClock, actuation_backend
 
-        sim_backend = open_backend("sim", design)
-        src = SimCamera(design, sim_backend, fps=fps)
+        # simulated time: frames at exactly 1/fps of simulated seconds, whatever the machine's load
+        clock = SimClock(period_s=min(0.01, float(design.drive.guard_period)))
+        sim_backend = actuation_backend(design, clock=clock)
+        src = SimCamera(design, sim_backend, fps=fps, clock=clock, sleep=clock.sleep)
     else:
         try:
             src = open_source(source, design)
@@ -123,20 +131,33 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
             fail(f"record: {err}")
     meta = {"source": source, "tracking": None if no_track else {"method": method, "model": model},
             "trial": trial}
+    if source == "sim":
+        meta["clock"] = "simulated seconds since t0 (the camera, simulator, sequence and guard share it)"
     act = runner = None
     n_frames = 0
     written = [0]                            # complete frames so far (for the message if the disk fills)
     try:
         with deenergise_on_signals():
             try:
-                rec = Recorder(out_dir, design, image_format=image_format, meta=meta, fsync=not no_fsync)
+                rec = Recorder(out_dir, design, image_format=image_format, meta=meta, fsync=not no_fsync,
+                               clock=clock)
             except RecordingError as err:
                 fail(f"record: {err}")
+            if source == "sim":
+                src.epoch = rec.t0            # frame times are session times
             with rec:
                 try:
                     if which is not None or file_steps is not None:
+                        def on_event(t_clock, event, coils, temps, rec=rec):
+                            rec.log_event(t_clock, event, coils, temps)
+                            tqdm.write(f"record: t = {rec.session_time(t_clock):.2f} s: guard {GUARD_WORDS[event]} "
+                                       f"coil(s) {' '.join(map(str, coils))} at up to {max(temps):.1f} C "
+                                       f"(derating from {act.guard.derate_from_C:g} C, cut at {act.guard.cut_C:g} C)",
+                                       file=sys.stderr)
+
                         act = open_actuator(design, backend, policy=policy, log=rec.log_actuation,
-                                            backend_object=sim_backend)
+                                            backend_object=sim_backend, clock=clock,
+                                            watchdog=source != "sim", on_event=on_event)
                         if file_steps is not None:
                             steps = file_steps
                         else:
@@ -162,23 +183,31 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
                         written[0] += 1
                         bar.update()
                     n_frames = record_frames(rec, rest, tracker=tracker, model=model, actuator=act,
-                                             on_frame=tick)
+                                             on_frame=tick, frame_times=source == "sim")
                     left = None if max_frames is None else max_frames - n_frames
                     if left is None or left > 0:
-                        runner = ThreadedSequenceRunner(act, steps) if act is not None else None
+                        if act is None:
+                            runner = None
+                        elif source == "sim":          # ticked by the simulated clock, no thread
+                            runner = SequenceRunner(act, steps)
+                            clock.hooks.append(lambda now: runner.tick(now) if runner.t0 is not None else None)
+                        else:
+                            runner = ThreadedSequenceRunner(act, steps)
                         n_frames += record_frames(
                             rec, frames, tracker=tracker, model=model, runner=runner, actuator=act,
                             max_frames=left, duration_s=duration,
                             after_sequence_s=tail_s if runner is not None else None,
-                            on_frame=tick)
+                            on_frame=tick, frame_times=source == "sim")
                     bar.close()
                 finally:
                     # switch off while the actuation table is still open, so the "off" row is recorded
-                    if runner is not None:
+                    if runner is not None and hasattr(runner, "stop"):
                         runner.stop()
                     if act is not None:
                         act.close()
                         rec.meta["guard"] = act.guard.state()
+                        rec.meta["guard_events"] = [{"time_s": round(rec.session_time(t), 4), "event": e,
+                                                     "coils": c, "temperatures_C": tc} for t, e, c, tc in act.events]
     except (RatingError, ValueError, RuntimeError) as err:
         fail(f"record: {err}")
     except OSError as err:
@@ -188,7 +217,7 @@ def cli(design, source, fps, out_dir, max_frames, duration, method, model, rest_
         fail(f"record: writing {out_dir}: {line}; the session keeps its {written[0]} complete frame(s) "
              "(readable by whisker recplot and whisker track)", code)
     finally:
-        if runner is not None:
+        if runner is not None and hasattr(runner, "stop"):
             runner.stop()
         if act is not None:
             act.close()

@@ -16,7 +16,7 @@ from whisker.cliutil import design_options, fail
               help="Coils: auto (gpio on a Raspberry Pi, else sim), sim (the simulator), mock (gpiozero mock pins), gpio.")
 @click.option("--tracker", type=click.Choice(["paper", "contour", "blob", "roi", "fit"]), default="roi",
               show_default=True, help="Marker tracking method (docs/tracking.md).")
-@click.option("--method", type=click.Choice(["authors", "adaptive"]), default="adaptive", show_default=True,
+@click.option("--estimator", "method", type=click.Choice(["authors", "adaptive"]), default="adaptive", show_default=True,
               help="State estimator (docs/states.md).")
 @click.option("--fps", type=click.FloatRange(1, 240), default=15.0, show_default=True,
               help="Frame rate of --source sim, frames/s.")

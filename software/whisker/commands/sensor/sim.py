@@ -19,6 +19,8 @@ LONG_RUN_STEPS = 200_000
 @click.option("--explain", is_flag=True, help="List the effects built and skipped, each with its reason, and exit.")
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Run folder (default: runs/<scene name>). Written atomically; old files are replaced.")
+@click.option("--design", "design_file", type=click.Path(dir_okay=False), default=None,
+              help="Design TOML file instead of the one the scene names (the scene's [design] set still applies).")
 @click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE",
               help="Override a design value for this run, e.g. --set mechanics.tip_friction=0.5 (repeatable).")
 @click.option("--scene-set", "scene_sets", multiple=True, metavar="SECTION.KEY=VALUE",
@@ -29,7 +31,7 @@ LONG_RUN_STEPS = 200_000
 @click.option("--trials", type=int, default=None, help="Override experiment.trials (displacement, classification).")
 @click.option("--json", "as_json", is_flag=True, help="With --explain: print the plan as JSON.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
-def cli(scene_file, explain, out, overrides, scene_sets, attempts, trials, as_json, quiet):
+def cli(scene_file, explain, out, design_file, overrides, scene_sets, attempts, trials, as_json, quiet):
     """Simulate SCENE.toml: the sensor, its whiskers, coils, objects and camera.
 
     Builds only the effects the scene calls for (kinematics, gravity, motion, magnetics, heating,
@@ -60,7 +62,7 @@ def cli(scene_file, explain, out, overrides, scene_sets, attempts, trials, as_js
             changes["experiment"] = ex
         if changes:
             scene = scene.with_(**changes)
-        design = scene_design(scene, tuple(overrides))
+        design = scene_design(scene, tuple(overrides), design_file)
         p = plan(scene, design)
         check(scene, design, p)          # the same checks for --explain and for the run
     except (SceneError, MissingModule) as err:
@@ -77,6 +79,9 @@ def cli(scene_file, explain, out, overrides, scene_sets, attempts, trials, as_js
     from whisker.sim.runner import run_scene
 
     out = Path(out) if out else Path("runs") / _slug(scene.scene.name)
+    from whisker.cliutil import check_out_path
+
+    check_out_path(out, "sim", folder=True)
     steps = steps_of(scene) if p.solver != "static" else 0
     if steps >= LONG_RUN_STEPS and scene.experiment.kind == "none":
         click.echo(f"long run: {steps:,} time steps of {scene.scene.timestep:g} s ({p.solver} solver); "
@@ -94,11 +99,17 @@ def cli(scene_file, explain, out, overrides, scene_sets, attempts, trials, as_js
         bar.n = int(1000 * min(max(frac, 0.0), 1.0))
         bar.refresh()
     t0 = time.perf_counter()
+    from whisker.cliutil import exclusive_out
+
     try:
-        summary = run_scene(scene, design, p, out, progress=progress)
+        with exclusive_out(out, "sim"):
+            summary = run_scene(scene, design, p, out, progress=progress)
     except (SceneError, SimulationError, MissingModule, ValueError) as err:
         bar.close()
         fail(f"simulation failed: {err}", 1)
+    except OSError as err:
+        bar.close()
+        fail(f"sim: cannot write the run folder {out}/: {err.strerror or err}", 1)
     bar.n = 1000
     bar.close()
     click.echo(summary.get("headline", f"done in {time.perf_counter() - t0:.2f} s"))

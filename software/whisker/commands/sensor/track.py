@@ -35,9 +35,9 @@ def _measured_tracker(design, tracker, rest, kw, quiet):
 @design_options
 @click.option("--source", required=True, metavar="SOURCE",
               help="picamera, a camera index (0, 1 ...), a video file, an image folder or file, or synthetic[:N].")
-@click.option("--method", type=click.Choice(["paper", "contour", "blob", "roi", "fit"]), default="roi",
-              show_default=True, help="paper = the paper's pipeline (HSV, 10x10 erosion, contours); roi = fastest, "
-                                      "subpixel; fit = roi + disc fit, most exact (see docs/tracking.md).")
+@click.option("--tracker", "method", type=click.Choice(["paper", "contour", "blob", "roi", "fit"]), default="roi",
+              show_default=True, help="Marker tracker: paper = the paper's pipeline (HSV, 10x10 erosion, contours); "
+                                      "roi = fastest, subpixel; fit = roi + disc fit, most exact (docs/tracking.md).")
 @click.option("--out", "out_csv", type=click.Path(dir_okay=False), default=None,
               help="CSV: one row per frame and whisker (frame, time_s, whisker, x_px, y_px, dx_px, dy_px, valid, "
                    "status, theta_deg, tip_x_mm, tip_y_mm, tip_z_mm).")

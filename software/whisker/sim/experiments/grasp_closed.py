@@ -52,6 +52,9 @@ def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, config
     from whisker.coil.kinematics import whisker_body
 
     objs = experiment_objects(scene)
+    if not objs:
+        raise ValueError("the scene has no objects to grasp (add [[objects]] tables; see "
+                         "whisker/sim/scenes/grasp.toml)")
     if objects:
         objs = [o for o in objs if o.name in objects]
         if not objs:

@@ -1,0 +1,46 @@
+"""Docs that cannot go stale (issue 30): every generated figure and table under docs/ and
+benchmarks/results/ carries a stamp in docs/generated.json (command, design digest, model numbers,
+sha256; whisker.data.provenance), and the stamp matches today's design and model.
+
+When this fails, the message names each file and what differs (e.g. "coil_resistance_ohm 5.872 ->
+6.1"); `make docs` regenerates and re-stamps them (docs/README: the lead regenerates after merges)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from whisker.data import provenance as P
+
+
+def test_every_generated_file_is_current():
+    bad = P.problems(expected=P.generated_files())
+    assert not bad, f"{len(bad)} generated file(s) not current:\n" + "\n".join(bad)
+
+
+def test_the_check_names_the_file_and_what_differs(tmp_path, monkeypatch):
+    """A file stamped from another design is reported with the model number that changed, a file
+    edited after stamping and an unstamped one are named too."""
+    monkeypatch.setattr(P, "ROOT", tmp_path)
+    man = tmp_path / "generated.json"
+    (tmp_path / "a.png").write_bytes(b"a")
+    (tmp_path / "b.md").write_text("b")
+    P.stamp([tmp_path / "a.png"], "make a", ["--set", "coil.turns=300"], manifest=man)
+    P.stamp([tmp_path / "b.md"], "make b", [], manifest=man)
+    assert P.problems(man) == []
+    data = json.loads(man.read_text())
+    data["a.png"]["design_args"] = []                    # as if today's design were the default again
+    man.write_text(json.dumps(data))
+    (tmp_path / "b.md").write_text("edited")
+    lines = P.problems(man, expected=["a.png", "b.md", "c.csv"])
+    a = next(x for x in lines if x.startswith("a.png"))
+    assert "coil_turns 300 -> 370" in a and "regenerate: make a" in a
+    assert any(x.startswith("b.md") and "changed after it was stamped" in x for x in lines)
+    assert any(x.startswith("c.csv") and "no provenance stamp" in x for x in lines)
+
+
+@pytest.mark.parametrize("args", [["--bogus"], ["--set"]])
+def test_stamp_refuses_bad_design_arguments(tmp_path, args):
+    with pytest.raises((ValueError, IndexError)):
+        P._split_args(args)
