@@ -19,6 +19,7 @@ MODULES = {
     "magnetics": ("magpylib",),
     "pi": ("lgpio", "smbus2"),
     "explore": ("dask", "distributed"),
+    "fem": ("skfem",),
 }
 _EXTRA_OF = {m: extra for extra, mods in MODULES.items() for m in mods}
 
