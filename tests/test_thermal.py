@@ -18,7 +18,10 @@ TH = T.CoilThermal(D)
 def test_limit_is_the_lowest_of_magnet_pla_enamel():
     from whisker.coil.thermal_materials import limit_C
     assert TH.limit_C == min(limit_C(D, "magnet"), limit_C(D, "mount"), limit_C(D, "enamel")) == 55.0
-    d = default_design("thermal.pla_softening=120")
+    from whisker.design.model import design_from_dict
+    data = D.to_dict()
+    data["thermal"]["pla_softening"] = 120.0       # a design file may override a material's limit
+    d = design_from_dict(data)
     th = T.CoilThermal(d)
     assert th.limit_C == limit_C(D, "magnet") == 80.0 and th.limit_name == "magnet max temperature"
 
