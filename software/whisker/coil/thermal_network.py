@@ -201,6 +201,8 @@ class ThermalNetwork:
         first = min(self.limit_table, key=lambda r: r[3])
         self.limit_node, self.limit_role, self.limit_name, self.limit_C = first
         self.limit_label = label(first)
+        # the lowest limit at the winding's own temperature (the hottest node: its resistance there)
+        self.winding_limit_C = min(c for _r, _n, c in lim["winding"]) if lim["winding"] else self.limit_C
         self.size = 5 * self.n + 2
         self.C, self.G, self.g_amb = self._build()
         self.winding_idx = np.arange(self.n) * 5
@@ -368,10 +370,11 @@ class ThermalNetwork:
         i = np.asarray(currents_A, dtype=float)
         return i * i * self.r20_ohm * (1.0 + self.alpha * (state[self.winding_idx] - 20.0))
 
-    def step_state(self, state, currents_A, dt_s: float, power_W=None) -> np.ndarray:
-        """State after dt_s with constant RMS currents (n,) in the windings (or a constant `power_W`
-        (n,) instead, for the finite-element check). Backward Euler, sub-steps <= max_substep_s;
-        R(T) is implicit (the Joule term is linear in the winding temperature)."""
+    def step_state(self, state, currents_A, dt_s: float, power_W=None, volts=None) -> np.ndarray:
+        """State after dt_s with constant RMS currents (n,) in the windings, or a constant `power_W`
+        (n,) (the finite-element check), or constant `volts` (n,) across each winding (V^2/R(T),
+        linearised about the step's start). Backward Euler, sub-steps <= max_substep_s; with a
+        current R(T) is implicit (the Joule term is linear in the winding temperature)."""
         x = np.asarray(state, dtype=float)
         dt = float(dt_s)
         if not math.isfinite(dt) or dt < 0:
@@ -386,6 +389,13 @@ class ThermalNetwork:
         diag = np.zeros(self.size)
         if power_W is not None:
             b[wi] += np.asarray(power_W, dtype=float)
+        elif volts is not None:
+            v = np.asarray(volts, dtype=float)
+            f0 = 1.0 + self.alpha * (x[wi] - 20.0)
+            p0 = v * v / (self.r20_ohm * f0)
+            dp = -p0 * self.alpha / f0                 # dP/dT < 0: a warmer coil takes less at a fixed voltage
+            b[wi] += p0 - dp * x[wi]
+            diag[wi] = dp
         else:
             i = np.asarray(currents_A, dtype=float)
             if i.shape != (self.n,) or not np.all(np.isfinite(i)):
@@ -463,3 +473,106 @@ class ThermalNetwork:
 def label(row) -> str:
     node, role, name, lim = row
     return f"{tm.ROLES[role][0]} ({name}, {lim:g} C)"
+
+
+# ---- answers at a constant voltage (the coil report, the explorer, `whisker coil thermal`) ----------
+
+def steady_state_at_volts(net: ThermalNetwork, volts, duty: float = 1.0) -> np.ndarray:
+    """Steady state with `volts` (scalar or (n,)) across the windings at a PWM `duty` (mean power
+    duty V^2/R(T)): fixed-point iteration on R(T), which converges because P falls as T rises."""
+    v = np.broadcast_to(np.asarray(volts, dtype=float), (net.n,))
+    tw = np.full(net.n, net.ambient_C)
+    for _ in range(200):
+        p = duty * v * v / (net.r20_ohm * (1.0 + net.alpha * (tw - 20.0)))
+        x = net.steady_state(power_W=p)
+        new = net.winding_C(x)
+        if np.max(np.abs(new - tw)) < 1e-6:
+            break
+        tw = new
+    return x
+
+
+def run_at_volts(net: ThermalNetwork, volts, t_end_s: float, duty: float = 1.0, dt_s: float = 0.02,
+                 state=None):
+    """(times (k,), states (k, size)) at `volts` across the windings from `state` (ambient)."""
+    v = np.broadcast_to(np.asarray(volts, dtype=float), (net.n,)) * math.sqrt(duty)
+    x = net.initial_state() if state is None else np.asarray(state, dtype=float)
+    steps = max(1, math.ceil(t_end_s / dt_s))
+    h = t_end_s / steps
+    ts, xs = [0.0], [x]
+    for k in range(steps):
+        x = net.step_state(x, None, h, volts=v)
+        ts.append((k + 1) * h)
+        xs.append(x)
+    return np.array(ts), np.array(xs)
+
+
+def time_to_limits_s(net: ThermalNetwork, volts, duty: float = 1.0, t_max_s: float = 3600.0) -> dict[str, float]:
+    """Seconds from ambient at `volts` (every whisker driven) until each limited material reaches its
+    limit ("role (material)" -> s, math.inf if never within t_max_s or at steady state). Steps grow with
+    time (2 % of the time elapsed, 10 ms at least); a crossing is interpolated inside its step."""
+    v = np.broadcast_to(np.asarray(volts, dtype=float), (net.n,)) * math.sqrt(duty)
+    limits = {f"{tm.ROLES[r][0]} ({name})": lim for _n, r, name, lim in net.limit_table}
+    out = {k: math.inf for k in limits}
+    steady = net.material_temperatures(steady_state_at_volts(net, volts, duty))
+    todo = {k for k in limits if steady[k] > limits[k]}
+    x, t = net.initial_state(), 0.0
+    prev = net.material_temperatures(x)
+    while todo and t < t_max_s:
+        h = max(0.01, 0.02 * t)
+        x = net.step_state(x, None, h, volts=v)
+        cur = net.material_temperatures(x)
+        for k in list(todo):
+            if cur[k] >= limits[k]:
+                a = (limits[k] - prev[k]) / max(cur[k] - prev[k], 1e-12)
+                out[k] = t + h * min(max(a, 0.0), 1.0)
+                todo.discard(k)
+        prev, t = cur, t + h
+    return out
+
+
+def safe_duty(net: ThermalNetwork, volts, margin_K: float = 0.0) -> float:
+    """Highest continuous PWM duty (0..1) at `volts` on every coil whose steady state keeps every
+    material at least margin_K below its limit (bisection on the steady state)."""
+    def ok(d):
+        room, _ = net.headroom(steady_state_at_volts(net, volts, d))
+        return float(np.min(room)) >= margin_K
+
+    if ok(1.0):
+        return 1.0
+    if not ok(0.0):
+        return 0.0
+    lo, hi = 0.0, 1.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo
+
+
+def summary(design, volts: float) -> dict:
+    """Everything the coil report prints about heating at `volts` across every coil, continuous, from
+    the thermal network (finite numbers or None for "never")."""
+    net = ThermalNetwork(design)
+    times = time_to_limits_s(net, volts)
+    first_key = min(times, key=times.get)
+    t_first = times[first_key]
+    if math.isinf(t_first):
+        first_key = net.limit_label.split(" (")[0] + " (" + net.limit_name + ")"
+    ss = steady_state_at_volts(net, volts)
+    mats = net.material_temperatures(ss)
+    cap = net.capacities_J_per_K()
+    p_cold = volts * volts / float(_coil.resistance_ohm(design, net.ambient_C))
+    lim_of = {f"{tm.ROLES[r][0]} ({name})": lim for _n, r, name, lim in net.limit_table}
+    return {
+        "volts": volts, "ambient_C": net.ambient_C, "model": "thermal network (whisker.coil.thermal_network)",
+        "limit": first_key, "limit_C": lim_of.get(first_key, net.limit_C),
+        "weakest_material": net.limit_label,
+        "heat_capacity_J_per_K": cap["winding"], "copper_mass_g": net.geo.copper_mass_g,
+        "power_cold_W": p_cold, "heating_rate_cold_K_per_s": p_cold / cap["winding"],
+        "steady_state_C": float(np.max(net.winding_C(ss))),
+        "steady_state_by_material_C": {k: float(v) for k, v in mats.items()},
+        "time_to_first_limit_s": None if math.isinf(t_first) else t_first,
+        "time_to_limit_s": {k: (None if math.isinf(v) else v) for k, v in times.items()},
+        "limits_C": lim_of,
+        "safe_duty": safe_duty(net, volts),
+    }
