@@ -383,7 +383,7 @@ class ThermalNetwork:
             raise ValueError(f"ThermalNetwork.step_state: state must be {self.size} finite temperatures")
         if dt == 0:
             return x.copy()
-        L, src = self._system()
+        _, src = self._system()
         wi = self.winding_idx
         b = src.copy()
         diag = np.zeros(self.size)
@@ -405,10 +405,24 @@ class ThermalNetwork:
             diag[wi] = p0 * self.alpha               # dP/dT: heat that grows with the temperature
         steps = max(1, math.ceil(dt / self.max_substep_s))
         h = dt / steps
-        M = np.diag(self.C / h) + L - np.diag(diag)
+        M = self._implicit_matrix(h).copy()
+        M[wi, wi] -= diag[wi]
+        ch = self.C / h
         for _ in range(steps):
-            x = np.linalg.solve(M, self.C / h * x + b)
+            x = np.linalg.solve(M, ch * x + b)
         return np.minimum(x, 5000.0)
+
+    def _implicit_matrix(self, h: float) -> np.ndarray:
+        """C/h + L for the sub-step h (cached: the guard calls with the same h every update)."""
+        cache = self.__dict__.setdefault("_mcache", {})
+        m = cache.get(h)
+        if m is None:
+            L, _ = self._system()
+            m = np.diag(self.C / h) + L
+            if len(cache) > 64:
+                cache.clear()
+            cache[h] = m
+        return m
 
     def steady_state(self, currents_A=None, power_W=None) -> np.ndarray:
         """Steady node temperatures at constant RMS currents (or powers), C (inf where runaway)."""
@@ -447,20 +461,30 @@ class ThermalNetwork:
                 out[key] = max(out.get(key, -math.inf), float(np.max(nt[node])))
         return out
 
+    def _limit_index(self):
+        """(indices (rows, n) into the state, limits (rows,), labels (rows,)) of every limited material."""
+        if getattr(self, "_lim_idx", None) is None:
+            idx, lims, labels = [], [], []
+            names = list(PER_WHISKER)
+            for node, items in self.node_limits.items():
+                if node in names:
+                    col = np.arange(self.n) * 5 + names.index(node)
+                else:
+                    col = np.full(self.n, 5 * self.n + list(SHARED).index(node))
+                for role, name, lim in items:
+                    idx.append(col)
+                    lims.append(lim)
+                    labels.append(f"{tm.ROLES[role][0]} ({name}, {lim:g} C) at the {node}")
+            self._lim_idx = (np.array(idx), np.array(lims, dtype=float), labels)
+        return self._lim_idx
+
     def headroom(self, state) -> tuple[np.ndarray, list[str]]:
         """Per whisker: the smallest (limit - temperature) over every material that reaches one of its
         nodes or a shared node, K, and which material and node it is (the weakest sets the limit)."""
-        nt = self.node_temperatures(state)
-        best = np.full(self.n, math.inf)
-        which = [""] * self.n
-        for node, items in self.node_limits.items():
-            t = np.broadcast_to(nt[node], (self.n,))
-            for role, name, lim in items:
-                m = lim - t
-                for i in np.flatnonzero(m < best):
-                    best[i] = m[i]
-                    which[i] = f"{tm.ROLES[role][0]} ({name}, {lim:g} C) at the {node}"
-        return best, which
+        idx, lims, labels = self._limit_index()
+        room = lims[:, None] - np.asarray(state)[idx]
+        k = np.argmin(room, axis=0)
+        return room[k, np.arange(self.n)], [labels[j] for j in k]
 
     def describe(self) -> dict:
         """Capacities, conductances and limits, for reports and docs."""
