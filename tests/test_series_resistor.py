@@ -202,7 +202,7 @@ def test_guard_uses_the_resistor_current(design):
     assert g.temperatures[0] == pytest.approx(expect, rel=1e-9)
     # level 1 (a stuck output) is allowed by the rating and still cut by the guard before the limit
     t_full, g_full = _time_to_cut(design, 1.0)
-    assert t_full < t_r and g_full.peak_C[0] < g_full.limit_C
+    assert t_full < t_r and g_full.peak_C[0] < g_full.model.winding_limit_C   # the resin at the winding
 
 
 # ---- BOM and netlist -----------------------------------------------------------------------------
