@@ -234,7 +234,7 @@ def main():
         "",
     ]
     write_text("thermal.md", "\n".join(text))
-    write_csv("thermal.csv", fe + [dict(r, part="cost") for r in []])
+    write_csv("thermal.csv", fe)
     print("\n".join(text))
 
 
