@@ -46,13 +46,15 @@ def test_missing_extra_message_names_the_pip_install():
 
 def test_doctor_reports_each_item_and_exit_status(tmp_path):
     res, items = doctor(tmp_path)
-    assert set(items) == {"design", "extras", "camera", "gpio", "coil state"}, res.stdout
+    assert set(items) == {"design", "extras", "camera", "gpio", "coil state", "kicad"}, res.stdout
+    assert items["kicad"][0] == "ok"  # informational: the sensor never needs KiCad
+    assert "kicad-cli 9." in items["kicad"][1] or "bookworm-backports" in items["kicad"][1]
     assert items["design"][0] == "ok" and str(ROOT / "hw" / "sensor.toml") in items["design"][1]
     assert items["gpio"] == ("ok", "MockFactory opens all 16 coil pins (GPIO 4, 5, 6, 12, 13, 16, 17, 18, 19, "
                                    "20, 22, 23, 24, 25, 26, 27)")
     assert items["coil state"][0] == "ok" and "none yet" in items["coil state"][1]
     bad = [k for k, (st, _) in items.items() if st == "FIX"]
-    assert res.returncode == (1 if bad else 0) and res.stdout.splitlines()[-1].startswith(f"{5 - len(bad)}/5 ok")
+    assert res.returncode == (1 if bad else 0) and res.stdout.splitlines()[-1].startswith(f"{6 - len(bad)}/6 ok")
 
 
 def test_doctor_says_what_to_fix(tmp_path):

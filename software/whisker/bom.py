@@ -353,36 +353,10 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         f"1.75 mm PLA, density {rho:g} g/cm^3", "any filament vendor",
         f"{len(PRINTED_PARTS)} parts, {how}, + {b.pla_waste:.0%} waste")
 
-    vs = d.driver.supply_voltage
-    jumper = ("5V-EN jumper fitted (its regulator makes the logic supply)" if module_makes_own_logic_supply(d)
-              else f"5V-EN jumper removed (fed {vs:g} V on +12V and +5V)")
-    cautions = "".join(f"; CAUTION: {w}" for w in supply_warnings(d))
-    add("h_bridge", "buy", f"{d.driver.type} dual H-bridge module", _num(modules), "pcs",
-        f"2 channels each (IN1/IN2/ENA, IN3/IN4/ENB), ENA/ENB jumpers fitted, {jumper}",
-        "common L298N motor-driver boards",
-        f"ceil({n}/2); PWM on IN1/IN2 sets the mean coil voltage (docs/wiring.md){cautions}")
-
-    rs = series_resistance_ohm(d)
-    if rs > 0:
-        p_rs = resistor_power_W(d)
-        try:
-            rating = resistor_rating_W(p_rs)
-        except ValueError as err:  # whisker.coil.driver.DriverError: no common part carries it
-            raise BomError(f"series resistor: {err}") from err
-        add("series_resistor", "buy", "series resistor per coil (the paper's voltage dividing circuit)", _num(n),
-            "pcs", f"{rs:g} ohm, {rating:g} W, 5 %, metal oxide or wirewound, axial",
-            "any electronics distributor",
-            f"one between each L298N output and its coil (driver.series_resistance); {p_rs:.2f} W at 100 % "
-            f"duty into a cold coil, <= {RESISTOR_LOAD:.0%} of the rating; caps the coil at "
-            f"{full_scale_voltage(d):.2f} V <= drive.max_coil_voltage={d.drive.max_coil_voltage:g} V "
-            f"even when a GPIO sticks high")
-
-    if expander:
-        boards = expander_boards_needed(n)
-        add("pwm_expander", "buy", "PCA9685 16-channel I2C PWM board", _num(boards), "pcs",
-            f"I2C at 0x{d.wiring.pca9685_address:02X}.. (address jumpers), {PCA9685_CHANNELS} channels, "
-            "3.3 V logic from the Pi",
-            "Adafruit 815 or compatible", f"2 channels per coil: ceil(2 x {n} / 16)")
+    if d.driver.type == "HAT":
+        _hat_rows(d, n, add)
+    else:
+        _module_rows(d, n, modules, expander, add)
 
     add("raspberry_pi", "buy", "Raspberry Pi 4 Model B", "1", "pcs",
         "2 GB or more, 40-pin header, CSI camera port", "Raspberry Pi approved resellers",
@@ -421,7 +395,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         f"{d.driver.supply_voltage:g} V regulated, at least {math.ceil(amps)} A",
         "bench supply or regulated wall adapter",
         f"{amps:.2f} A with all {n} coils fully on at once ({full_scale_voltage(d):.2f} V at each "
-        f"{c.resistance:g} ohm coil after the bridge drop{' and series resistor' if rs > 0 else ''}) and the "
+        f"{c.resistance:g} ohm coil after the bridge drop{' and series resistor' if series_resistance_ohm(d) > 0 else ''}) and the "
         "modules' quiescent current; "
         "share its GND with the Pi")
 
@@ -429,14 +403,16 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
     spare = 2 if n % 2 else 0  # IN3/IN4 of a half-used module tied to a Pi GND pin (as in the netlist)
     bus = 4 * expander_boards_needed(n) if expander else 0  # 3V3, GND, SDA, SCL per PCA9685 board
     jumpers = signal + 1 + 2 + spare + bus  # + one Pi GND -> supply GND (the common ground), + 2 LED
-    add("jumpers", "buy", "female-female jumper wires", _num(jumpers), "pcs",
-        "2.54 mm Dupont, 20 cm", "any",
-        f"from the pin map (hw/pcb/generated/pinout.md): {signal} signal + 1 Pi GND to the supply GND"
-        " + 2 LED strip to the Pi's 5V and GND (cut one end, solder it to the strip)"
-        + (f" + {spare} tying the spare IN3/IN4 to GND" if spare else "")
-        + (f" + {bus} for the PCA9685 bus (3V3, GND, SDA, SCL per board)" if bus else ""))
-    add("power_wire", "buy", "power wire supply -> modules", _num(2 * modules), "pcs",
-        "22 AWG stranded, red/black", "any", f"+{vs:g} V and GND to each module's screw terminals")
+    vs = d.driver.supply_voltage
+    if d.driver.type != "HAT":  # the HAT plugs onto the header: no jumpers, power on its own terminal
+        add("jumpers", "buy", "female-female jumper wires", _num(jumpers), "pcs",
+            "2.54 mm Dupont, 20 cm", "any",
+            f"from the pin map (hw/pcb/generated/pinout.md): {signal} signal + 1 Pi GND to the supply GND"
+            " + 2 LED strip to the Pi's 5V and GND (cut one end, solder it to the strip)"
+            + (f" + {spare} tying the spare IN3/IN4 to GND" if spare else "")
+            + (f" + {bus} for the PCA9685 bus (3V3, GND, SDA, SCL per board)" if bus else ""))
+        add("power_wire", "buy", "power wire supply -> modules", _num(2 * modules), "pcs",
+            "22 AWG stranded, red/black", "any", f"+{vs:g} V and GND to each module's screw terminals")
 
     from whisker.design import fasteners as fz
 
@@ -574,6 +550,55 @@ def write_bom_csv(rows: list[BomRow], path: str | Path) -> Path:
     path = Path(path)
     atomic_write_text(path, bom_csv(rows))
     return path
+
+
+def _module_rows(d, n, modules, expander, add) -> None:
+    """The paper's drive: L298N modules, series resistors, PCA9685 boards (driver.type = "L298N")."""
+    vs = d.driver.supply_voltage
+    jumper = ("5V-EN jumper fitted (its regulator makes the logic supply)" if module_makes_own_logic_supply(d)
+              else f"5V-EN jumper removed (fed {vs:g} V on +12V and +5V)")
+    cautions = "".join(f"; CAUTION: {w}" for w in supply_warnings(d))
+    add("h_bridge", "buy", f"{d.driver.type} dual H-bridge module", _num(modules), "pcs",
+        f"2 channels each (IN1/IN2/ENA, IN3/IN4/ENB), ENA/ENB jumpers fitted, {jumper}",
+        "common L298N motor-driver boards",
+        f"ceil({n}/2); PWM on IN1/IN2 sets the mean coil voltage (docs/wiring.md){cautions}")
+
+    rs = series_resistance_ohm(d)
+    if rs > 0:
+        p_rs = resistor_power_W(d)
+        try:
+            rating = resistor_rating_W(p_rs)
+        except ValueError as err:  # whisker.coil.driver.DriverError: no common part carries it
+            raise BomError(f"series resistor: {err}") from err
+        add("series_resistor", "buy", "series resistor per coil (the paper's voltage dividing circuit)", _num(n),
+            "pcs", f"{rs:g} ohm, {rating:g} W, 5 %, metal oxide or wirewound, axial",
+            "any electronics distributor",
+            f"one between each L298N output and its coil (driver.series_resistance); {p_rs:.2f} W at 100 % "
+            f"duty into a cold coil, <= {RESISTOR_LOAD:.0%} of the rating; caps the coil at "
+            f"{full_scale_voltage(d):.2f} V <= drive.max_coil_voltage={d.drive.max_coil_voltage:g} V "
+            f"even when a GPIO sticks high")
+
+    if expander:
+        boards = expander_boards_needed(n)
+        add("pwm_expander", "buy", "PCA9685 16-channel I2C PWM board", _num(boards), "pcs",
+            f"I2C at 0x{d.wiring.pca9685_address:02X}.. (address jumpers), {PCA9685_CHANNELS} channels, "
+            "3.3 V logic from the Pi",
+            "Adafruit 815 or compatible", f"2 channels per coil: ceil(2 x {n} / 16)")
+
+
+def _hat_rows(d, n, add) -> None:
+    """The generated driver HAT (driver.type = "HAT"): one assembled board and a pigtail per coil."""
+    from whisker.coil.board import full_scale_current_A, sense_resistance_ohm
+
+    add("driver_hat", "make", "whisker driver HAT (Raspberry Pi HAT, 4-layer PCB, assembled)", "1", "pcs",
+        f"{n} coil channels: {math.ceil(n / 2)} x {d.driver.bridge}, {math.ceil(n / 3)} x {d.driver.current_monitor} "
+        f"({sense_resistance_ohm(d):g} ohm sense), supply {d.driver.supply_voltage:g} V, "
+        f"{full_scale_current_A(d):.2f} A per coil full scale",
+        "order with hw/pcb/generated/hat/gerbers + bom_jlcpcb.csv + cpl_jlcpcb.csv (make pcb; JLCPCB format)",
+        "docs/wiring.md; replaces the L298N modules, series resistors and jumper wires")
+    add("coil_pigtail", "buy", "JST PH 2-pin housing with two pre-crimped leads", _num(n), "pcs",
+        "JST PHR-2 + 2 x SPH-002T-P0.5S, 26-28 AWG, ~100 mm", "JST / pre-crimped PH lead kits",
+        "one per coil: solder the coil's thin leads to the pigtail, plug into W0..")
 
 
 def _limit(design, role: str) -> float:

@@ -37,8 +37,28 @@ class DriverError(ValueError):
     """An impossible drive request; the one-line message says what and why."""
 
 
+BRIDGE_TABLE = "bridges.csv"        # hw/bridges.csv: one row per H-bridge IC, each naming its datasheet
+MONITOR_TABLE = "current_monitors.csv"  # hw/current_monitors.csv: I2C current monitors
+
+
+def _rows(name: str) -> list[dict]:
+    import csv
+
+    from whisker.resources import hw_dir
+
+    with open(hw_dir() / name, newline="") as fh:
+        return list(csv.DictReader(line for line in fh if not line.startswith("#")))
+
+
+def _opt(v: str) -> float | None:
+    return float(v) if v.strip() else None
+
+
 @dataclass(frozen=True)
 class Bridge:
+    """One row of hw/bridges.csv: an H-bridge IC. Drops are for both conducting switches,
+    ``v0 + r I`` at the min / typ / max corner (V, ohm); currents per bridge (A)."""
+
     name: str
     kind: str              # "bipolar" or "mosfet"
     v0_typ: float          # V, total drop at zero current (both switches)
@@ -49,31 +69,91 @@ class Bridge:
     supply_min_V: float
     supply_max_V: float
     source: str
+    channels: int = 2
+    peak_current_A: float = 0.0
+    v0_min: float = 0.0
+    r_min: float = 0.0
+    regulation: str = "none"         # none | sense_resistor | ipropi
+    vtrip_min: float | None = None   # V (sense_resistor) or fraction (ipropi)
+    vtrip_typ: float | None = None
+    vtrip_max: float | None = None
+    tsd_C: float = 150.0             # C, thermal shutdown (minimum)
+    package: str = ""
 
     def drop_V(self, current_A: float, corner: str = "typ") -> float:
         i = abs(float(current_A))
-        if corner == "typ":
-            return (self.v0_typ + self.r_typ * i) if i > 0 else 0.0
-        if corner == "max":
-            return (self.v0_max + self.r_max * i) if i > 0 else 0.0
-        raise DriverError(f"corner must be 'typ' or 'max' (got {corner!r})")
+        try:
+            v0, r = {"typ": (self.v0_typ, self.r_typ), "max": (self.v0_max, self.r_max),
+                     "min": (self.v0_min, self.r_min)}[corner]
+        except KeyError:
+            raise DriverError(f"corner must be 'min', 'typ' or 'max' (got {corner!r})") from None
+        return (v0 + r * i) if i > 0 else 0.0
 
 
-BRIDGES = {
-    "L298N": Bridge("L298N", "bipolar", 1.40, 1.15, 1.60, 1.70, 2.0, 4.5, 46.0,
-                    "ST L298 datasheet: V_CEsat(H)+V_CEsat(L) at 1 A and 2 A"),
-    "TB6612FNG": Bridge("TB6612FNG", "mosfet", 0.0, 0.5, 0.0, 0.7, 1.2, 2.5, 13.5,
-                        "Toshiba TB6612FNG datasheet: Ron upper+lower 0.5 ohm typ"),
-    "DRV8833": Bridge("DRV8833", "mosfet", 0.0, 0.36, 0.0, 0.45, 1.5, 2.7, 10.8,
-                      "TI DRV8833 datasheet: HS+LS Rds(on) 360 mOhm typ at VM = 5 V"),
-}
+def _bridge(row: dict) -> Bridge:
+    return Bridge(name=row["name"], kind=row["kind"], v0_typ=float(row["v0_typ_V"]), r_typ=float(row["r_typ_ohm"]),
+                  v0_max=float(row["v0_max_V"]), r_max=float(row["r_max_ohm"]),
+                  max_current_A=float(row["max_current_A"]), supply_min_V=float(row["supply_min_V"]),
+                  supply_max_V=float(row["supply_max_V"]), source=row["source"], channels=int(row["channels"]),
+                  peak_current_A=float(row["peak_current_A"]), v0_min=float(row["v0_min_V"]),
+                  r_min=float(row["r_min_ohm"]), regulation=row["regulation"], vtrip_min=_opt(row["vtrip_min"]),
+                  vtrip_typ=_opt(row["vtrip_typ"]), vtrip_max=_opt(row["vtrip_max"]), tsd_C=float(row["tsd_C"]),
+                  package=row["package"])
+
+
+@dataclass(frozen=True)
+class Monitor:
+    """One row of hw/current_monitors.csv: an I2C current monitor (shunt-voltage ADC)."""
+
+    name: str
+    channels: int
+    addresses: int
+    offset_V: float      # V, shunt offset (max)
+    gain_error: float    # fraction (max)
+    full_scale_V: float  # V, +- shunt range
+    lsb_V: float
+    supply_min_V: float
+    supply_max_V: float
+    package: str
+    source: str
+
+
+def _monitor(row: dict) -> Monitor:
+    return Monitor(name=row["name"], channels=int(row["channels"]), addresses=int(row["addresses"]),
+                   offset_V=float(row["offset_V"]), gain_error=float(row["gain_error"]),
+                   full_scale_V=float(row["full_scale_V"]), lsb_V=float(row["lsb_V"]),
+                   supply_min_V=float(row["supply_min_V"]), supply_max_V=float(row["supply_max_V"]),
+                   package=row["package"], source=row["source"])
+
+
+BRIDGES = {r["name"]: _bridge(r) for r in _rows(BRIDGE_TABLE)}
+MONITORS = {r["name"]: _monitor(r) for r in _rows(MONITOR_TABLE)}
+
+#: driver.type of the generated Raspberry Pi HAT (hw/pcb): its bridge is driver.bridge (whisker.coil.board).
+HAT = "HAT"
 
 
 def bridge(name: str) -> Bridge:
+    """The bridge called `name` (a row of hw/bridges.csv)."""
     try:
         return BRIDGES[name]
     except KeyError:
-        raise DriverError(f"unknown driver {name!r}; known: {', '.join(BRIDGES)}") from None
+        raise DriverError(f"unknown driver {name!r}: no such bridge in hw/bridges.csv; known: {', '.join(BRIDGES)}") from None
+
+
+def design_bridge(design) -> Bridge:
+    """The bridge a design drives its coils with: driver.bridge on the HAT, else driver.type (a module)."""
+    if design.driver.type == HAT:
+        return bridge(design.driver.bridge)
+    return bridge(design.driver.type)
+
+
+def monitor(name: str) -> Monitor:
+    try:
+        return MONITORS[name]
+    except KeyError:
+        raise DriverError(f"unknown current monitor {name!r}; known: {', '.join(MONITORS)} "
+                          "(hw/current_monitors.csv)") from None
 
 
 def coil_current_A(bridge_: Bridge, supply_V: float, coil_ohm: float, series_ohm: float = 0.0,
@@ -94,6 +174,8 @@ def series_resistance_ohm(design) -> float:
     the rating (default design: 7 x 6.1/3.3 - 8.15 = 4.79 -> 5.1 ohm).
     """
     value = design.driver.series_resistance
+    if design.driver.type == HAT:
+        return 0.0  # the HAT regulates each coil's current: no series resistor
     if value != "auto":
         return float(value)
     return auto_series_resistance_ohm(bridge(design.driver.type), float(design.driver.supply_voltage),
@@ -142,7 +224,7 @@ def resistor_power_W(design, temperature_C: float = 20.0) -> float:
     if rs == 0:
         return 0.0
     rc = _coil.resistance_ohm(design, temperature_C)
-    i = coil_current_A(bridge(design.driver.type), float(design.driver.supply_voltage), rc, rs)
+    i = coil_current_A(design_bridge(design), float(design.driver.supply_voltage), rc, rs)
     return i * i * rs
 
 
@@ -190,7 +272,7 @@ def plan(design, target_coil_V: float | None = None, driver: str | None = None,
     Returns the bridge drop, the supply needed for direct drive, and DrivePlans for direct drive,
     series resistor, the paper's divider and PWM, each with its cold/hot current.
     """
-    br = bridge(driver or design.driver.type)
+    br = bridge(driver) if driver else design_bridge(design)
     vs = float(supply_V if supply_V is not None else design.driver.supply_voltage)
     vt = float(target_coil_V if target_coil_V is not None else design.actuation.voltage)
     if not (vt > 0 and math.isfinite(vt)):

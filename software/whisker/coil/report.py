@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from whisker import coil
-from whisker.coil import driver
+from whisker.coil import board, driver
 from whisker.coil import magnetics
 from whisker.coil import thermal_network
 from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad, stiffness_source
@@ -111,6 +111,7 @@ def build_report(design, volts: float | None = None) -> dict:
         "thermal": thermal_network.summary(design, v),
         "driver": driver.plan(design, v),
         "drivers": driver.compare_drivers(design),
+        "board_vs_modules": board.compare(design, v),
         "build": _build_or_missing(design, v),
     }
     return rep
@@ -225,6 +226,13 @@ def format_report(rep: dict) -> str:
                  f"{r['current_A']:.3f} A, supply for {rep['electrical']['volts_at_coil']:g} V: {r['supply_for_target_V']:.2f} V"
                  + ("" if r["within_current_rating"] else " (OVER ITS CURRENT RATING fully on)")
                  + ("" if r["in_supply_range"] else " (SUPPLY OUT OF RANGE)"))
+    lo, hi = board.T_RANGE_C
+    L.append(f"FORCE AT THE REST GAP, {lo:g}-{hi:g} C coil and datasheet spread (whisker.coil.board; "
+             f"board vs the paper's modules):")
+    for r in rep.get("board_vs_modules", []):
+        L.append(f"    {r['driver']:22s} {r['current_A']:.3f} A ({r['current_low_A']:.3f}-{r['current_high_A']:.3f}), "
+                 f"{r['force_mN']:.2f} mN ({r['force_low_mN']:.2f}-{r['force_high_mN']:.2f}), spread "
+                 f"{r['spread_pct']:.1f} %  [{r['how']}]")
     return "\n".join(L)
 
 

@@ -269,6 +269,22 @@ class Driver(_Section):
         "ohm, resistor in series with each coil between the H-bridge output and the coil; 0 = none; "
         "'auto' = the smallest E24 value that keeps a cold coil at <= drive.max_coil_voltage at 100 % "
         "duty (whisker.coil.driver.series_resistance_ohm)"))
+    bridge: str = Field("DRV8833", description=(
+        "H-bridge IC on the generated HAT (driver.type = \"HAT\"), a row of hw/bridges.csv"))
+    current_monitor: str = Field("INA3221", description=(
+        "I2C current monitor on the HAT that closes each coil's current loop, a row of hw/current_monitors.csv"))
+    sense_resistance: Literal["auto"] | float = Field("auto", description=(
+        "ohm, the HAT's per-coil sense resistor (bridge xISEN to GND, read by the current monitor); 'auto' = "
+        "the largest E24 value whose monitor range holds the full-scale current (whisker.coil.board)"))
+
+    @field_validator("sense_resistance", mode="before")
+    @classmethod
+    def _sense_resistance(cls, v):
+        if v == "auto":
+            return v
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < v <= 10):
+            raise ValueError("must be \"auto\" or a resistance in ohm in (0, 10]")
+        return float(v)
 
     @field_validator("series_resistance", mode="before")
     @classmethod

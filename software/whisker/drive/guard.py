@@ -68,8 +68,14 @@ def full_scale_voltage(design) -> float:
     """
     if design.drive.full_scale_voltage > 0:
         return float(design.drive.full_scale_voltage)
-    from whisker.coil import driver
+    from whisker.coil import board, driver
 
+    if board.is_hat(design):  # the HAT regulates current: level 1 = the rated current, as cold-coil volts
+        try:
+            board.check(design)
+        except board.BoardError as err:
+            raise RatingError(str(err)) from None
+        return board.full_scale_current_A(design) * float(design.coil.resistance)
     br = driver.bridge(design.driver.type)
     r = float(design.coil.resistance)
     rs = driver.series_resistance_ohm(design)
@@ -84,7 +90,7 @@ def driver_current_rating_A(design) -> float:
     """The H-bridge's DC current rating per channel, A (``whisker.coil.driver``; L298N: 2 A)."""
     from whisker.coil import driver
 
-    return float(driver.bridge(design.driver.type).max_current_A)
+    return float(driver.design_bridge(design).max_current_A)
 
 
 def max_level(design) -> float:
@@ -186,15 +192,21 @@ def coil_current_A(design, volts_at_cold_coil, temperature_C=20.0):
     Vectorised over volts and temperature.
     """
     from whisker import coil
-    from whisker.coil import driver
+    from whisker.coil import board, driver
 
+    if board.is_hat(design):  # regulated: the current follows the level, not the coil's temperature
+        v = np.asarray(volts_at_cold_coil, dtype=float)
+        if not np.all(np.isfinite(v)):
+            raise ValueError(f"volts_at_cold_coil must be finite (got {volts_at_cold_coil!r})")
+        out = v / float(design.coil.resistance) + 0.0 * np.asarray(temperature_C, dtype=float)
+        return out if np.ndim(out) else float(out)
     rs = driver.series_resistance_ohm(design)
     if rs == 0.0:
         return coil.current_A(design, volts_at_cold_coil, temperature_C)
     v = np.asarray(volts_at_cold_coil, dtype=float)
     if not np.all(np.isfinite(v)):
         raise ValueError(f"volts_at_cold_coil must be finite (got {volts_at_cold_coil!r})")
-    r_src = rs + driver.bridge(design.driver.type).r_typ
+    r_src = rs + driver.design_bridge(design).r_typ
     r20 = float(design.coil.resistance)
     out = v * (r20 + r_src) / (r20 * (coil.resistance_ohm(design, temperature_C) + r_src))
     return out if np.ndim(out) else float(out)

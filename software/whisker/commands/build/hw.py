@@ -71,6 +71,41 @@ def pcb(design, out, no_diagram):
 
 @cli.command()
 @design_options
+@click.option("--out", type=click.Path(file_okay=False), default="hw/pcb/generated/hat", show_default=True,
+              help="Output folder for the HAT: netlist, ERC, placement, routed board, Gerbers, drill, BOM, CPL, renders.")
+@click.option("--no-route", is_flag=True, help="Circuit, ERC and placement only (no KiCad needed).")
+def hat(design, out, no_route):
+    """The driver HAT for the design (driver.type is set to "HAT" for it): SKiDL circuit + ERC,
+    parts placed by code on the 65 x 56.5 mm HAT outline, routed (freeroute), checked by
+    `kicad-cli pcb drc` (0 errors, 0 unconnected), Gerbers/Excellon (dates stripped), JLCPCB BOM and
+    CPL, top/bottom renders. Needs KiCad 9 (kicad-cli, pcbnew) unless --no-route.
+
+    Exit status 2 with one line for a design the HAT cannot carry (coil current above the bridge's
+    rating, more coils than its monitors address, unknown bridge) or without KiCad; 1 when ERC or DRC
+    fails. The output folder is replaced only by a complete, clean build.
+    """
+    from whisker.coil.driver import DriverError
+    from whisker.drive.pins import PinMapError
+    from whisker.pcb.board import HatErcFailed, build_hat
+    from whisker.pcb.hat import HatError
+    from whisker.pcb.kicad import BoardFailed, KicadMissing
+
+    try:
+        summary = build_hat(design, Path(out), route=not no_route, log=lambda m: click.echo(m, err=True))
+    except (HatError, PinMapError, DriverError) as err:
+        fail(f"hat refused: {err}")
+    except KicadMissing as err:
+        fail(f"hat: {err}")
+    except (HatErcFailed, BoardFailed) as err:
+        fail(str(err), code=1)
+    drc = summary.get("drc")
+    click.echo(f"wrote {out}/: {summary['whiskers']} coils, {summary['parts']} parts, {summary['nets']} nets; ERC "
+               f"{summary['erc_errors']} errors" + (f"; DRC {drc['errors']} errors, {drc['unconnected']} unconnected"
+                                                     if drc else "; not routed (--no-route)"))
+
+
+@cli.command()
+@design_options
 def pins(design):
     """Print the pin map (one line per coil) as the actuation software uses it."""
     from whisker.drive.pins import PinMapError, pin_map

@@ -48,6 +48,16 @@ def check_extras() -> Check:
     return Check("extras", True, detail)
 
 
+def check_kicad() -> Check:
+    """KiCad 9 for the HAT's board steps (make pcb); not needed to run the sensor, so never a fault."""
+    try:
+        from whisker.pcb.kicad import kicad_status
+    except ImportError as err:  # the hw extra (SKiDL) is missing: the board code is not importable
+        return Check("kicad", True, f"board steps unavailable ({err}); the sensor does not need them")
+    ok, line = kicad_status()
+    return Check("kicad", True, line if ok else f"not installed (only `make pcb` needs it): {line}")
+
+
 def _v4l2_indices() -> list[int]:
     """Indices of /dev/videoN nodes OpenCV can open for capture (codec nodes on a Pi cannot)."""
     import cv2
@@ -165,13 +175,14 @@ def check_state_file(design) -> Check:
 @click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE", help="Override a design value.")
 def cli(design_file, overrides):
     """Check this machine for the sensor: the design in use, the installed extras, the cameras
-    (Picamera2, V4L2 indices), the GPIO pin factory and whether it opens the coil pins, and the
-    coil state file. Each line says "ok" or what to do. Exit status 0 when every item is ok, 1 otherwise.
+    (Picamera2, V4L2 indices), the GPIO pin factory and whether it opens the coil pins, the
+    coil state file, and KiCad 9 for the HAT's board steps (informational). Each line says "ok" or what to do. Exit status 0 when every item is ok, 1 otherwise.
 
     GPIOZERO_PIN_FACTORY=mock checks the pin map on gpiozero's mock pins (no Raspberry Pi needed).
     """
     design_check, design = check_design(design_file, overrides)
-    checks = [design_check, check_extras(), check_camera(), check_gpio(design), check_state_file(design)]
+    checks = [design_check, check_extras(), check_camera(), check_gpio(design), check_state_file(design),
+              check_kicad()]
     width = max(len(c.item) for c in checks)
     for c in checks:
         click.echo(f"{'ok ' if c.ok else 'FIX'}  {c.item:<{width}}  {c.detail}")
