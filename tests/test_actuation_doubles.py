@@ -1,6 +1,6 @@
 """Helpers shared by the actuation, guard and recording tests (no tests in here).
 
-`coil_model(design)` is the real coil model (whisker.coil.thermal / whisker.coil), used by most tests.
+`coil_model(design)` is the real coil model (whisker.coil.thermal_network / whisker.coil), used by most tests.
 `DoubleThermal` / `double_current_A` are test doubles with the same call signatures (a lumped coil:
 heat capacity C, thermal resistance to ambient Rth, copper resistance rising 0.393 %/K), used only
 where a test needs what the real coil cannot give: a coil that heats `speedup` times faster (so a
@@ -27,8 +27,8 @@ class DoubleThermal:
     def __init__(self, design, heat_capacity_J_per_K=0.1, rth_K_per_W=60.0, speedup=1.0):
         self.design = design
         self.ambient_C = design.thermal.ambient
-        self.limit_C = min(design.thermal.pla_softening, design.magnet.max_temperature,
-                           design.thermal.enamel_class)
+        from whisker.coil.thermal_materials import limit_C
+        self.limit_C = min(limit_C(design, "mount"), limit_C(design, "magnet"), limit_C(design, "enamel"))
         self.c = heat_capacity_J_per_K / speedup
         self.rth = rth_K_per_W
 
@@ -41,11 +41,12 @@ class DoubleThermal:
 
 
 def coil_model(design):
-    """(thermal, current_fn): the real coil model (whisker.coil.thermal.CoilThermal, whisker.coil.current_A)."""
+    """(thermal, current_fn): the real coil model (whisker.coil.thermal_network.ThermalNetwork, the
+    guard's default, and whisker.coil.current_A)."""
     from whisker.coil import current_A
-    from whisker.coil.thermal import CoilThermal
+    from whisker.coil.thermal_network import ThermalNetwork
 
-    return CoilThermal(design), current_A
+    return ThermalNetwork(design), current_A
 
 
 class FakeClock:

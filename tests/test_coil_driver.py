@@ -96,7 +96,7 @@ def test_cli_report_json_and_files(tmp_path):
     assert res.returncode == 0, res.stderr
     rep = json.loads(res.stdout, parse_constant=lambda c: (_ for _ in ()).throw(AssertionError(c)))
     assert rep["winding"]["fits"] is True and rep["winding"]["turns"] == D.coil.turns == 370
-    assert rep["thermal"]["limit"] == "PLA softening"
+    assert rep["thermal"]["limit"] == "bobbin (standard resin post-cured)"   # the thermal network's first limit
     for name in ("report.txt", "report.json", "force.png", "temperature.png"):
         assert (tmp_path / name).stat().st_size > 100
     assert "DOES NOT FIT" not in (tmp_path / "report.txt").read_text()   # the default winds what fits

@@ -157,8 +157,30 @@ CHECKS = [
     ("docs/assembly.md", r"inside the mount seat's ([\d.]+) mm `print.clearance`", lambda c: [c.d.print.clearance]),
     ("docs/assembly.md", r"they lie on a ([\d.]+) mm circle", lambda c: [flanges.flange("iso9409_31_5_4_m5").pitch_diameter]),
     ("docs/assembly.md", r"from below: (\d+) M(\d) screws", lambda c: [c.d.mount.mounting_hole_count, 3]),
-    ("docs/assembly.md", r"drive the (\d+) M(\d) coupling screws", lambda c: [c.d.adapter.coupling_count, 3]),
+    ("docs/assembly.md", r"drive the (\d+) M(\d) coupling screws", lambda c: [c.d.adapter.coupling_count, 3]),    # heat: the thermal network's first limit and safe duty at the grasp voltage, the paper's protocol
+    ("README.md", r"the first thermal limit is the resin bobbin at the winding \((\d+) C\) after \*\*([\d.]+) s\*\*, "
+     r"and the safe continuous duty cycle is \*\*([\d.]+) %\*\*",
+     lambda c: _thermal_summary(c.d)),
+    ("README.md", r"the guard steps in \*\*([\d.]+) s\*\* after switching on. Holding at level \*\*([\d.]+)\*\* after "
+     r"the whiskers close \((\d+) % of the 3 V grasp level, ([\d.]+)\)",
+     lambda c: _protocol_numbers(c.d)),
 ]
+
+
+def _thermal_summary(d):
+    from whisker.coil.thermal_network import summary
+
+    s = summary(d, d.actuation.voltage)
+    return [s["limit_C"], s["time_to_first_limit_s"], 100 * s["safe_duty"]]
+
+
+def _protocol_numbers(d):
+    from whisker.drive.guard import volts_to_levels
+    from whisker.drive.thermal_protocol import fit_hold_level, run_protocol
+
+    lvl = float(volts_to_levels(d, [d.actuation.voltage])[0])
+    hold = fit_hold_level(d, lvl)
+    return [run_protocol(d, lvl).first_reduced_s, hold, 100 * hold / lvl, lvl]
 
 #: Numbers with "mm" in FILES that are not CAD dimensions of the default design, and why.
 EXEMPT = [

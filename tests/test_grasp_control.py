@@ -159,10 +159,12 @@ def test_sim_table_guards_both_loops_and_the_closed_loop_spends_less_per_held_gr
     assert tab["open_guard"] and "both through the same thermal guard" in closed_loop_markdown(tab)
     assert row["open_success"] == row["closed_success"] == 1
     assert row["closed_energy_per_success_J"] < row["open_energy_per_success_J"]
-    # the guard's derating begins only near the end of the paper's grasp: the guarded open loop's
-    # hottest coil stays below the cut-off, and the closed loop's below the derate start
+    # the thermal network holds each material below its own limit: the winding's resin bobbin derates
+    # from 63 C, which the simulator's 1.2 s grasp does not reach in either loop; the closed loop, which
+    # steps its level down at the top, runs cooler
     g = ThermalGuard(design, clock=lambda: 0.0)
-    assert row["closed_peak_C"] < g.derate_from_C < row["open_peak_C"] < g.cut_C
+    derate_at_winding = g.model.winding_limit_C - g.margin_K - g.band_K
+    assert row["closed_peak_C"] < row["open_peak_C"] < derate_at_winding
 
 
 def test_sim_lost_marker_during_the_lift_ends_with_coils_off(grasp_setup):

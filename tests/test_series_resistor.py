@@ -183,22 +183,26 @@ def test_guard_uses_the_resistor_current(design):
     t_r, g_r = _time_to_cut(design, lv_r)
     t_b, g_b = _time_to_cut(bare, lv_b)
     assert 1.3 < t_r / t_b < 2.2
-    assert g_r.peak_C[0] < g_r.cut_C + 1.0 and g_b.peak_C[0] < g_b.cut_C + 1.0
+    # cut at the weakest material's cut-off (the headroom), not past it
+    assert g_r.headroom_K[0] > g_r.margin_K - 1.0 and g_b.headroom_K[0] > g_b.margin_K - 1.0
     # the guard's heating of one step is the thermal model at sqrt(level) x the resistor-limited current
     g = ThermalGuard(design, clock=FakeClock(), policy="cut")
     req = np.zeros(8)
     req[0] = lv_r
     g.allow(req)
     t0 = float(g.temperatures[0])
+    x0 = g.node_state.copy()
     g.clock.t = 0.01
     g.advance()
     vfs = full_scale_voltage(design)
-    expect = g.thermal.step(t0, math.sqrt(lv_r) * coil_current_A(design, vfs, t0), 0.01)
+    cur = np.zeros(8)
+    cur[0] = math.sqrt(lv_r) * coil_current_A(design, vfs, t0)
+    expect = float(g.thermal.winding_C(g.thermal.step_state(x0, cur, 0.01))[0])
     assert expect > t0
     assert g.temperatures[0] == pytest.approx(expect, rel=1e-9)
     # level 1 (a stuck output) is allowed by the rating and still cut by the guard before the limit
     t_full, g_full = _time_to_cut(design, 1.0)
-    assert t_full < t_r and g_full.peak_C[0] < g_full.limit_C
+    assert t_full < t_r and g_full.peak_C[0] < g_full.model.winding_limit_C   # the resin at the winding
 
 
 # ---- BOM and netlist -----------------------------------------------------------------------------

@@ -174,11 +174,12 @@ def test_pwm_heating_follows_the_rms_current_like_the_guard():
                          "fidelity": {"heating": "on"}})
     r = simulate(s, d)
     th = coil_thermal(d)
-    T = float(th.ambient_C)
+    x = th.initial_state()
     h = s.fidelity.heating_interval
     for _ in range(int(round(t_end / h))):
-        i_peak = float(current_A(d, full_scale_voltage(d), T))
-        T = th.step(T, math.sqrt(level) * i_peak, h)
+        i_peak = np.asarray(current_A(d, full_scale_voltage(d), th.winding_C(x)), dtype=float)
+        x = th.step_state(x, math.sqrt(level) * i_peak, h)
+    T = float(th.winding_C(x)[0])
     assert r.temperature_C[-1, 0] == pytest.approx(T, abs=0.05 * (T - th.ambient_C))
     # mean-current heating would be d times smaller in power: clearly below
     assert pwm_rms_current_A(np.array([0.2]), np.array([0.25]))[0] == pytest.approx(0.4)

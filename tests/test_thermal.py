@@ -16,10 +16,14 @@ TH = T.CoilThermal(D)
 
 
 def test_limit_is_the_lowest_of_magnet_pla_enamel():
-    assert TH.limit_C == min(D.magnet.max_temperature, D.thermal.pla_softening, D.thermal.enamel_class)
-    d = default_design("thermal.pla_softening=120")
+    from whisker.coil.thermal_materials import limit_C
+    assert TH.limit_C == min(limit_C(D, "magnet"), limit_C(D, "mount"), limit_C(D, "enamel")) == 55.0
+    from whisker.design.model import design_from_dict
+    data = D.to_dict()
+    data["thermal"]["pla_softening"] = 120.0       # a design file may override a material's limit
+    d = design_from_dict(data)
     th = T.CoilThermal(d)
-    assert th.limit_C == D.magnet.max_temperature and th.limit_name == "magnet max temperature"
+    assert th.limit_C == limit_C(D, "magnet") == 80.0 and th.limit_name == "magnet max temperature"
 
 
 def test_heat_capacity_is_mostly_copper_of_the_measured_resistance():

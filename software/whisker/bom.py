@@ -301,7 +301,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
     total_m = n * per_coil * (1 + b.wire_waste) / 1000.0
     add("magnet_wire", "buy", "enamelled copper magnet wire", _num(total_m, 1), "m",
         f"{c.wire_diameter:g} mm bare copper (AWG {awg(c.wire_diameter)}), enamel class "
-        f"{d.thermal.enamel_class:g} C",
+        f"{_limit(d, 'enamel'):g} C",
         "electronics distributors: 0.1 mm enamelled copper wire spool",
         f"{n} coils x ({wire.wire_length_mm / 1000:.2f} m winding [{wire.source}] + 2 x "
         f"{b.coil_lead_length:g} mm leads) + {b.wire_waste:.0%} waste")
@@ -309,7 +309,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
     m = d.magnet
     add("magnet", "buy", "NdFeB disc magnet in the mount wall", _num(n), "pcs",
         f"{m.grade} NdFeB disc {m.diameter:g} mm dia x {m.height:g} mm, axially magnetised",
-        "magnet suppliers (custom size)", f"N pole faces the coil; max {m.max_temperature:g} C")
+        "magnet suppliers (custom size)", f"N pole faces the coil; max {_limit(d, 'magnet'):g} C")
 
     mem = d.membrane
     vol_ml = volumes_mm3[MEMBRANE_PART] / 1000.0
@@ -599,3 +599,9 @@ def _hat_rows(d, n, add) -> None:
     add("coil_pigtail", "buy", "JST PH 2-pin housing with two pre-crimped leads", _num(n), "pcs",
         "JST PHR-2 + 2 x SPH-002T-P0.5S, 26-28 AWG, ~100 mm", "JST / pre-crimped PH lead kits",
         "one per coil: solder the coil's thin leads to the pigtail, plug into W0..")
+
+
+def _limit(design, role: str) -> float:
+    """A part's temperature limit from the thermal material table (whisker.coil.thermal_materials), C."""
+    from whisker.coil.thermal_materials import limit_C
+    return limit_C(design, role)

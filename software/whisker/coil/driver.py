@@ -278,9 +278,9 @@ def plan(design, target_coil_V: float | None = None, driver: str | None = None,
     if not (vt > 0 and math.isfinite(vt)):
         raise DriverError(f"target coil voltage must be positive (got {vt!r})")
     rc = _coil.resistance_ohm(design, 20.0)
-    from whisker.coil.thermal import CoilThermal
+    from whisker.coil.thermal_network import ThermalNetwork
 
-    t_hot = CoilThermal(design).limit_C
+    t_hot = ThermalNetwork(design).winding_limit_C
     rh = _coil.resistance_ohm(design, t_hot)
     i_t = vt / rc
     out = {"driver": br.name, "driver_source": br.source, "supply_V": vs, "target_coil_V": vt,

@@ -1,7 +1,7 @@
 """The coil calculator's report: one dict (JSON-ready, finite numbers only) and its text form.
 
 Pulls together whisker.coil (winding, electrical, deflection), whisker.coil.magnetics (force against
-gap), whisker.coil.thermal (heating) and whisker.coil.driver (bridge, supply, divider, PWM).
+gap), whisker.coil.thermal_network (heating: a node per part, every material's own limit) and whisker.coil.driver (bridge, supply, divider, PWM).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 from whisker import coil
 from whisker.coil import board, driver
 from whisker.coil import magnetics
-from whisker.coil import thermal
+from whisker.coil import thermal_network
 from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad, stiffness_source
 
 REPORT_GAPS_MM = (0.2, 0.5, 1.0, 2.0, 2.5, 5.0, 10.0)
@@ -62,8 +62,8 @@ def build_report(design, volts: float | None = None) -> dict:
         raise coil.CoilError(f"volts must be a positive finite number (got {volts!r}); at 0 V nothing moves or heats")
     w = coil.winding(design)
     i20 = coil.current_A(design, v, 20.0)
-    th = thermal.CoilThermal(design)
-    i_hot = coil.current_A(design, v, th.limit_C)
+    t_hot = thermal_network.ThermalNetwork(design).winding_limit_C
+    i_hot = coil.current_A(design, v, t_hot)
     gaps = np.array(REPORT_GAPS_MM)
     k = magnetics.force_per_ampere_N(design, gaps)
     k_rest = float(magnetics.force_per_ampere_N(design, design.actuation.gap))
@@ -73,7 +73,7 @@ def build_report(design, volts: float | None = None) -> dict:
     elec = {
         "volts_at_coil": v,
         "resistance_20C_ohm": r20,
-        "resistance_at_limit_ohm": coil.resistance_ohm(design, th.limit_C),
+        "resistance_at_limit_ohm": coil.resistance_ohm(design, t_hot),
         "current_20C_A": i20,
         "current_at_limit_A": i_hot,
         "power_20C_W": v * i20,
@@ -108,7 +108,7 @@ def build_report(design, volts: float | None = None) -> dict:
         "electrical": elec,
         "force": force,
         "deflection": defl,
-        "thermal": thermal.summary(design, v),
+        "thermal": thermal_network.summary(design, v),
         "driver": driver.plan(design, v),
         "drivers": driver.compare_drivers(design),
         "board_vs_modules": board.compare(design, v),
@@ -148,6 +148,8 @@ def format_report(rep: dict) -> str:
     """Human-readable text of :func:`build_report`."""
     w, e, f, d, t, dr = rep["winding"], rep["electrical"], rep["force"], rep["deflection"], rep["thermal"], rep["driver"]
     L = []
+    L.append(f"FIRST THERMAL LIMIT: {t['limit']} at {t['limit_C']:g} C after {_f(t['time_to_first_limit_s'])} s "
+             f"at {t['volts']:g} V continuous on every coil")
     L.append("WINDING")
     L.append(f"  {w['turns']} turns, wire overall {w['wire_overall_diameter_mm']:.3f} mm, window {w['window_mm2']:.2f} mm^2 "
              "(the bobbin's: coil.length x (coil.outer_diameter/2 - bobbin.rim_margin - coil.inner_diameter/2))")
@@ -195,13 +197,12 @@ def format_report(rep: dict) -> str:
         L.append(f"MARGIN AND BUILD YIELD: {b['missing']}")
     else:
         _build_lines(L, b, e)
-    L.append(f"THERMAL at {t['volts']:g} V continuous (ambient {t['ambient_C']:g} C)")
-    L.append(f"  heat capacity {t['heat_capacity_J_per_K'] * 1e3:.0f} mJ/K, cooling {t['conductance_W_per_K'] * 1e3:.2f} mW/K, "
-             f"time constant {t['time_constant_s']:.1f} s, {t['heating_rate_cold_K_per_s']:.1f} K/s at first")
-    L.append(f"  first limit {t['limit']} ({t['limit_C']:g} C) after {_f(t['time_to_first_limit_s'])} s; "
-             f"magnet {_f(t['time_to_limit_s']['magnet'])} s, PLA {_f(t['time_to_limit_s']['pla'])} s, "
-             f"enamel {_f(t['time_to_limit_s']['enamel'])} s; steady state {t['steady_state_C']:.0f} C")
-    L.append(f"  safe continuous duty cycle: {t['safe_duty'] * 100:.1f} %")
+    L.append(f"THERMAL at {t['volts']:g} V continuous on every coil (ambient {t['ambient_C']:g} C; {t['model']})")
+    L.append(f"  winding heat capacity {t['heat_capacity_J_per_K'] * 1e3:.0f} mJ/K, "
+             f"{t['heating_rate_cold_K_per_s']:.1f} K/s at first ({t['power_cold_W']:.2f} W)")
+    L.append("  time to each material's limit: " + ", ".join(
+        f"{k} {t['limits_C'][k]:g} C: {'never' if v is None else format(v, '.3g') + ' s'}" for k, v in t["time_to_limit_s"].items()))
+    L.append(f"  steady state: winding {t['steady_state_C']:.0f} C; safe continuous duty cycle {t['safe_duty'] * 100:.1f} %")
     L.append(f"DRIVER {dr['driver']} at {dr['supply_V']:g} V ({dr['driver_source']})")
     L.append(f"  drop {dr['bridge_drop_V']:.2f} V typ / {dr['bridge_drop_max_V']:.2f} V max at "
              f"{dr['target_current_A']:.3f} A; coil gets {dr['coil_V_full_on']:.2f} V fully on; supply for "
@@ -263,7 +264,8 @@ def plot_force(design, path, current_A: float | None = None) -> None:
 
 
 def plot_temperature(design, path, volts: float) -> None:
-    """Coil temperature against time at `volts` continuous and at the safe duty, with the limits."""
+    """Every limited material's temperature against time at `volts` on every coil, continuous and at
+    the safe duty, with the limits (the thermal network), written atomically as PNG."""
     import io
 
     import matplotlib
@@ -272,22 +274,23 @@ def plot_temperature(design, path, volts: float) -> None:
 
     from whisker.files import atomic_write_bytes
 
-    th = thermal.CoilThermal(design)
-    t_end = max(10.0, 4.0 * th.time_constant_s)
-    fig, ax = plt.subplots(figsize=(6, 4))
-    duty = th.safe_duty(volts)
-    for dty, lab in ((1.0, "continuous"), (duty, f"safe duty {duty * 100:.0f} %")):
-        t, T = th.temperature_curve(volts, t_end, duty=dty)
-        ax.plot(t, T, label=lab)
-    for name, lim in (("magnet", th.limits.magnet_C), ("PLA", th.limits.pla_C), ("enamel", th.limits.enamel_C)):
-        ax.axhline(lim, ls=":", color="grey")
-        ax.text(t_end, lim, name, ha="right", va="bottom", fontsize=8)
-    ax.set_xlabel("time, s")
-    ax.set_ylabel("coil temperature, C")
-    ax.set_title(f"coil at {volts:g} V")
-    ax.set_ylim(th.ambient_C - 5, min(max(th.limits.enamel_C + 20, 100), th.steady_state_C(volts) + 20))
-    ax.legend()
-    ax.grid(True, alpha=0.3)
+    net = thermal_network.ThermalNetwork(design)
+    duty = thermal_network.safe_duty(net, volts)
+    t_end = 60.0
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
+    for ax, dty, lab in ((axes[0], 1.0, "continuous"), (axes[1], duty, f"safe duty {duty * 100:.0f} %")):
+        ts, xs = thermal_network.run_at_volts(net, volts, t_end, duty=dty, dt_s=0.1)
+        series = [net.material_temperatures(x) for x in xs]
+        for k in series[0]:
+            ax.plot(ts, [r[k] for r in series], label=k)
+        for lim in sorted({c for *_, c in net.limit_table}):
+            ax.axhline(lim, ls=":", color="grey", lw=0.8)
+        ax.set_xlabel("time, s")
+        ax.set_title(f"{volts:g} V, {lab}")
+        ax.grid(True, alpha=0.3)
+    axes[0].set_ylabel("temperature, C")
+    axes[0].set_ylim(net.ambient_C - 5, 170)
+    axes[1].legend(fontsize=7)
     buf = io.BytesIO()
     fig.tight_layout()
     fig.savefig(buf, format="png", dpi=110)

@@ -10,9 +10,12 @@ coil's outer surface (side + both annular faces), h = [thermal] convection_coeff
 eps = [thermal] emissivity, G_rod = [thermal] rod_conductance. Skipped (Principle 3): the gradient
 inside the winding (Biot number h*r/k_winding ~ 1e-3, negligible), heating of the surroundings.
 
-Limits ("whichever is lowest"): the magnet's maximum working temperature ([magnet]
-max_temperature), PLA softening ([thermal] pla_softening), the enamel's thermal class ([thermal]
-enamel_class). They are applied to the COIL temperature: conservative for the magnet and the PLA,
+This is the cheap one-node variant, kept for the accuracy-vs-cost benchmark (benchmarks/bench_thermal.py);
+the guard, the report, the simulator and the explorer use the thermal network
+(whisker.coil.thermal_network), which has a node per part and every material's own limit.
+
+Limits ("whichever is lowest"): the magnet's maximum working temperature, PLA softening, the
+enamel's thermal class (hw/materials/thermal.csv via whisker.coil.thermal_materials.limit_C). They are applied to the COIL temperature: conservative for the magnet and the PLA,
 which sit across the gap and warm more slowly than the coil.
 
 Heat capacity and resistance follow the design's measured resistance by default: the wire length is
@@ -74,8 +77,8 @@ class CoilThermal:
         self.design = design
         self.source = source
         self.ambient_C = float(th.ambient)
-        self.limits = Limits(float(design.magnet.max_temperature), float(th.pla_softening),
-                             float(th.enamel_class))
+        from whisker.coil.thermal_materials import limit_C
+        self.limits = Limits(limit_C(design, "magnet"), limit_C(design, "mount"), limit_C(design, "enamel"))
         self.limit_name, self.limit_C = self.limits.lowest
         self.r20_ohm = float(_coil.resistance_ohm(design, 20.0, source=source))
         d = c.wire_diameter

@@ -79,7 +79,9 @@ class Magnet(_Section):
     height: float = Field(gt=0, le=50, description="mm along the magnetisation")
     grade: str = "N42"
     remanence: float = Field(gt=0, lt=2, description="T")
-    max_temperature: float = Field(gt=0, le=400, description="C")
+    max_temperature: float | None = Field(None, gt=0, le=400, description=(
+        "C, override of the magnet's maximum operating temperature; None = the thermal material table's "
+        "row NdFeB <grade> (hw/materials/thermal.csv)"))
 
 
 class Actuation(_Section):
@@ -244,8 +246,16 @@ class Mechanics(_Section):
 
 class Thermal(_Section):
     ambient: float = Field(ge=-50, le=100, description="C")
-    pla_softening: float = Field(gt=0, le=400, description="C")
-    enamel_class: float = Field(gt=0, le=400, description="C")
+    pla_softening: float | None = Field(None, gt=0, le=400, description=(
+        "C, override of the mount material's limit; None = hw/materials/thermal.csv"))
+    enamel_class: float | None = Field(None, gt=0, le=400, description=(
+        "C, override of the enamel's thermal class; None = hw/materials/thermal.csv"))
+    enamel: str = Field("polyurethane enamel class F", description="row of hw/materials/thermal.csv: the wire's enamel")
+    bobbin_material: str = Field("standard resin post-cured", description="row of hw/materials/thermal.csv: the bobbin")
+    rod_glue: str = Field("cyanoacrylate", description="row of hw/materials/thermal.csv: rod in the bobbin's socket")
+    magnet_glue: str = Field("cyanoacrylate", description="row of hw/materials/thermal.csv: magnet in its pocket")
+    rod_material: str = Field("carbon fibre rod", description="row of hw/materials/thermal.csv: the whisker rod")
+    mount_material: str = Field("PLA", description="row of hw/materials/thermal.csv: the printed mount")
     convection_coefficient: float = Field(20.0, gt=0, le=1000, description="W/(m^2 K), coil surface to air")
     emissivity: float = Field(0.9, ge=0, le=1, description="coil surface (enamel)")
     rod_conductance: float = Field(0.0015, ge=0, le=100, description="W/K, coil to membrane through the rod")

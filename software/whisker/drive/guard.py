@@ -216,12 +216,70 @@ def _coil_current_fn():
     return coil_current_A
 
 
+def _fast_current_fn(design):
+    """:func:`coil_current_A` with the design's constants worked out once (the guard calls it twice per
+    update on a Pi): the same formula, checked against it at two temperatures."""
+    from whisker import coil
+    from whisker.coil import driver
+
+    rs = driver.series_resistance_ohm(design)
+    r20 = float(design.coil.resistance)
+    rc20 = float(coil.resistance_ohm(design, 20.0))
+    alpha = coil.ALPHA20_PER_K
+    r_src = rs + driver.bridge(design.driver.type).r_typ if rs != 0.0 else 0.0
+
+    def fast(_design, volts, temperature_C):
+        rt = rc20 * (1.0 + alpha * (np.asarray(temperature_C, dtype=float) - 20.0))
+        if rs == 0.0:
+            return np.asarray(volts, dtype=float) / rt
+        return np.asarray(volts, dtype=float) * (r20 + r_src) / (r20 * (rt + r_src))
+
+    for t in (20.0, 80.0):
+        ref, got = float(np.asarray(coil_current_A(design, 1.0, t))), float(fast(design, 1.0, t))
+        if not math.isclose(ref, got, rel_tol=1e-9):  # the formula moved on: use the general one
+            return coil_current_A
+    return fast
+
+
 def _thermal_model(design):
-    try:
-        from whisker.coil.thermal import CoilThermal
-    except ImportError as err:  # pragma: no cover - depends on the issue-4 module
-        raise RuntimeError("the thermal guard needs whisker.coil.thermal.CoilThermal (coil model)") from err
-    return CoilThermal(design)
+    """The sensor's thermal network (whisker.coil.thermal_network.ThermalNetwork): every material's own limit."""
+    from whisker.coil.thermal_network import ThermalNetwork
+    return ThermalNetwork(design)
+
+
+class _ScalarModel:
+    """A one-temperature-per-coil model (``ambient_C``, ``limit_C``, ``step(T, I, dt)``: the lumped
+    whisker.coil.thermal.CoilThermal or a test double) seen through the network's interface."""
+
+    def __init__(self, model, n: int):
+        self.model, self.n, self.size = model, n, n
+        self.ambient_C = float(model.ambient_C)
+        self.limit_C = float(model.limit_C)
+        self.limit_label = f"coil limit ({self.limit_C:g} C)"
+        self._vectorised: Optional[bool] = None
+
+    def initial_state(self, temperature_C=None):
+        return np.full(self.n, self.ambient_C if temperature_C is None else float(temperature_C))
+
+    def step_state(self, state, currents, dt):
+        state = np.asarray(state, dtype=float)
+        i = np.asarray(currents, dtype=float)
+        if self._vectorised is None:  # probe once: does the model take numpy arrays?
+            try:
+                out = np.asarray(self.model.step(state, i, dt), dtype=float)
+                ref = np.array([float(self.model.step(float(t), float(c), dt)) for t, c in zip(state, i)])
+                self._vectorised = out.shape == state.shape and np.allclose(out, ref, equal_nan=True)
+            except Exception:  # noqa: BLE001 - scalar-only model
+                self._vectorised = False
+        if self._vectorised:
+            return np.asarray(self.model.step(state, i, dt), dtype=float)
+        return np.array([float(self.model.step(float(t), float(c), dt)) for t, c in zip(state, i)])
+
+    def winding_C(self, state):
+        return np.asarray(state, dtype=float)
+
+    def headroom(self, state):
+        return self.limit_C - np.asarray(state, dtype=float), [self.limit_label] * self.n
 
 
 # ---------------------------------------------------------------------------------------------
@@ -252,56 +310,60 @@ class ThermalGuard:
         self.design = design
         self.n = design.whiskers.count
         self.thermal = thermal if thermal is not None else _thermal_model(design)
-        self.current_fn = current_fn or _coil_current_fn()
+        self.model = self.thermal if hasattr(self.thermal, "step_state") else _ScalarModel(self.thermal, self.n)
+        self.current_fn = current_fn or _fast_current_fn(design)
         self.policy = policy
         self.clock = clock
         self.max_substep_s = float(max_substep_s)
         d = design.drive
-        self.limit_C = float(self.thermal.limit_C)
-        self.ambient_C = float(self.thermal.ambient_C)
-        self.cut_C = self.limit_C - float(d.guard_margin)
-        self.derate_from_C = self.cut_C - float(d.guard_derate_band)
-        self.resume_C = self.cut_C - float(d.guard_hysteresis)
+        self.limit_C = float(self.model.limit_C)          # the first (weakest) material's limit
+        self.limit_label = str(getattr(self.model, "limit_label", f"{self.limit_C:g} C"))
+        self.ambient_C = float(self.model.ambient_C)
+        self.margin_K = float(d.guard_margin)
+        self.band_K = float(d.guard_derate_band)
+        self.hysteresis_K = float(d.guard_hysteresis)
+        # in the first limit's terms (every material is held the same margins below its own limit)
+        self.cut_C = self.limit_C - self.margin_K
+        self.derate_from_C = self.cut_C - self.band_K
+        self.resume_C = self.cut_C - self.hysteresis_K
         if self.cut_C <= self.ambient_C:
-            raise ValueError(f"guard cut-off {self.cut_C:g} C (limit {self.limit_C:g} C - "
+            raise ValueError(f"guard cut-off {self.cut_C:g} C ({self.limit_label} - "
                              f"drive.guard_margin) is not above ambient {self.ambient_C:g} C")
         self.v_fs = full_scale_voltage(design)
         start = self.ambient_C if initial_C is None else float(initial_C)
         if not math.isfinite(start):
             raise ValueError(f"initial coil temperature must be finite, got {initial_C}")
-        self.temperatures = np.full(self.n, start, dtype=float)
+        self.node_state = self.model.initial_state(start)
         self.state_file = Path(state_file) if state_file else None
         if self.state_file is not None and initial_C is None:
             self._load_state()
-        self.tripped = self.temperatures >= self.cut_C
+        self._sync()
+        self.tripped = self.headroom_K <= self.margin_K
         self.applied = np.zeros(self.n)
         self.peak_C = self.temperatures.copy()
         self.trips = np.zeros(self.n, dtype=int)
-        self._vectorised: Optional[bool] = None
+        self.trip_reason = [""] * self.n
         self._t = self.clock()
 
     # -- physics ---------------------------------------------------------------------------
-    def _rms_current(self, level: float, temperature_C: float) -> float:
-        if level == 0.0:
-            return 0.0
-        i_peak = float(self.current_fn(self.design, self.v_fs, temperature_C))
-        return math.sqrt(abs(level)) * i_peak
+    def _sync(self) -> None:
+        """Winding temperatures and each coil's headroom (K below its weakest material) from the state."""
+        self.temperatures = np.asarray(self.model.winding_C(self.node_state), dtype=float).copy()
+        self.headroom_K, self.limited_by = self.model.headroom(self.node_state)
+        self.headroom_K = np.asarray(self.headroom_K, dtype=float)
 
-    def _step_all(self, temps: np.ndarray, levels: np.ndarray, h: float) -> np.ndarray:
-        """One thermal step of every coil; vectorised when the coil model accepts arrays."""
-        if self._vectorised is None:  # probe once: does the model take numpy arrays?
-            try:
-                i = np.sqrt(np.abs(levels)) * np.asarray(self.current_fn(self.design, self.v_fs, temps))
-                out = np.asarray(self.thermal.step(temps, i, h), dtype=float)
-                ref = np.array([float(self.thermal.step(float(t), float(c), h)) for t, c in zip(temps, i)])
-                self._vectorised = out.shape == temps.shape and np.allclose(out, ref, equal_nan=True)
-            except Exception:  # noqa: BLE001 - scalar-only model
-                self._vectorised = False
-        if self._vectorised:
-            i = np.sqrt(np.abs(levels)) * np.asarray(self.current_fn(self.design, self.v_fs, temps))
-            return np.asarray(self.thermal.step(temps, i, h), dtype=float)
-        return np.array([float(self.thermal.step(float(t), self._rms_current(float(lv), float(t)), h))
-                         for t, lv in zip(temps, levels)])
+    def _rms_currents(self, temps: np.ndarray, levels: np.ndarray) -> np.ndarray:
+        try:
+            peak = np.broadcast_to(np.asarray(self.current_fn(self.design, self.v_fs, temps), dtype=float),
+                                   temps.shape)
+        except Exception:  # noqa: BLE001 - a scalar-only current model
+            peak = np.array([float(self.current_fn(self.design, self.v_fs, float(t))) for t in temps])
+        return np.where(levels != 0.0, np.sqrt(np.abs(levels)) * peak, 0.0)
+
+    def _step_state(self, state: np.ndarray, levels: np.ndarray, h: float) -> np.ndarray:
+        """One thermal step of every coil at `levels` (PWM RMS currents at the windings' temperatures)."""
+        temps = np.asarray(self.model.winding_C(state), dtype=float)
+        return np.asarray(self.model.step_state(state, self._rms_currents(temps, levels), h), dtype=float)
 
     def advance(self, now: Optional[float] = None) -> np.ndarray:
         """Integrate every coil's temperature up to `now` with the levels applied since the last call."""
@@ -314,42 +376,57 @@ class ThermalGuard:
             # coil is off the model cools them in one call (it is stable for any dt)
             steps = 1 if not np.any(self.applied) else min(200, max(1, math.ceil(dt / self.max_substep_s)))
             h = dt / steps
-            temps = self.temperatures.copy()
+            x = self.node_state
             for _ in range(steps):
-                temps = self._step_all(temps, self.applied, h)
+                x = self._step_state(x, self.applied, h)
+            temps = np.asarray(self.model.winding_C(x), dtype=float)
             bad = np.flatnonzero(~np.isfinite(temps))
-            if bad.size:
-                raise FloatingPointError(f"coil {int(bad[0])} temperature estimate became {temps[bad[0]]}")
-            self.temperatures = temps
+            if bad.size or not np.all(np.isfinite(x)):
+                i = int(bad[0]) if bad.size else 0
+                raise FloatingPointError(f"coil {i} temperature estimate became {temps[i]}")
+            self.node_state = x
+            self._sync()
             self.peak_C = np.maximum(self.peak_C, self.temperatures)
         self._t = now
         return self.temperatures
 
     # -- policy ----------------------------------------------------------------------------
     def predict(self, levels, horizon_s: float) -> np.ndarray:
-        """Each coil's temperature `horizon_s` from now if `levels` were held (the model, no update)."""
+        """Each coil's winding temperature `horizon_s` from now if `levels` were held (no update)."""
+        return np.asarray(self.model.winding_C(self._predict_state(levels, horizon_s)), dtype=float)
+
+    def _predict_state(self, levels, horizon_s: float) -> np.ndarray:
         if horizon_s <= 0:
-            return self.temperatures.copy()
-        return self._step_all(self.temperatures, np.asarray(levels, dtype=float), horizon_s)
+            return self.node_state.copy()
+        return self._step_state(self.node_state, np.asarray(levels, dtype=float), horizon_s)
 
     def factor(self, requested=None) -> np.ndarray:
         """Fraction (0..1) of the requested |level| each coil may have from now on.
 
-        A coil trips when its temperature, or the temperature the model predicts one guard period
-        ahead at the level it would apply (the request times the derate factor), reaches the
-        cut-off: so the cut comes before the crossing, not one update after it. (Predicting with the
-        un-derated request instead trips a derating coil whenever one period of the full request
-        heats it across the cut-off, e.g. at the bare bridge's 5.24 V full scale from a 7.5 V supply.)
+        Every material that reaches one of a coil's nodes (or a shared node) is held below its own
+        limit; the one with the least headroom sets the coil's factor (the weakest sets the limit):
+        derating over ``guard_derate_band`` down to 0 at ``guard_margin`` below that material's limit,
+        where the coil trips. A coil trips when its headroom, or the headroom the model predicts one
+        guard period ahead at the level it would apply (the request times the derate factor), reaches
+        the margin: so the cut comes before the crossing, not one update after it.
         """
-        t = self.temperatures
+        room = self.headroom_K
         f = np.ones(self.n)
-        if self.policy == "derate" and self.cut_C > self.derate_from_C:
-            f = np.clip((self.cut_C - t) / (self.cut_C - self.derate_from_C), 0.0, 1.0)
-        ahead = t if requested is None else np.maximum(
-            t, self.predict(np.asarray(requested, dtype=float) * f, float(self.design.drive.guard_period)))
-        newly = (~self.tripped) & (ahead >= self.cut_C)
+        if self.policy == "derate" and self.band_K > 0:
+            f = np.clip((room - self.margin_K) / self.band_K, 0.0, 1.0)
+        ahead_room, ahead_by = room, self.limited_by
+        if requested is not None:
+            x = self._predict_state(np.asarray(requested, dtype=float) * f, float(self.design.drive.guard_period))
+            r2, by2 = self.model.headroom(x)
+            r2 = np.asarray(r2, dtype=float)
+            ahead_by = [b2 if v2 < v1 else b1 for v1, v2, b1, b2 in zip(room, r2, self.limited_by, by2)]
+            ahead_room = np.minimum(room, r2)
+        hit = ahead_room <= self.margin_K
+        newly = (~self.tripped) & hit
+        for i in np.flatnonzero(newly):
+            self.trip_reason[int(i)] = ahead_by[int(i)]
         self.trips += newly
-        self.tripped = np.where(self.tripped, t >= self.resume_C, ahead >= self.cut_C)
+        self.tripped = np.where(self.tripped, room <= self.margin_K + self.hysteresis_K, hit)
         return np.where(self.tripped, 0.0, f)
 
     def allow(self, requested, now: Optional[float] = None) -> np.ndarray:
@@ -368,7 +445,10 @@ class ThermalGuard:
                 "tripped": [bool(x) for x in self.tripped],
                 "trips": [int(x) for x in self.trips],
                 "peak_C": [round(float(x), 3) for x in self.peak_C],
-                "cut_C": self.cut_C, "limit_C": self.limit_C, "policy": self.policy}
+                "headroom_K": [round(float(x), 3) for x in self.headroom_K],
+                "limited_by": list(self.limited_by), "trip_reason": list(self.trip_reason),
+                "cut_C": self.cut_C, "limit_C": self.limit_C, "first_limit": self.limit_label,
+                "policy": self.policy}
 
     # -- persistence -----------------------------------------------------------------------
     def save_state(self) -> None:
@@ -377,25 +457,27 @@ class ThermalGuard:
             return
         self.advance()
         atomic_write_json(self.state_file, {"wall_time_s": time.time(), "digest": self.design.digest(),
-                                            "temperatures_C": [float(x) for x in self.temperatures]})
+                                            "temperatures_C": [float(x) for x in self.temperatures],
+                                            "nodes_C": [float(x) for x in self.node_state]})
 
     def _load_state(self) -> None:
         try:
             data = json.loads(self.state_file.read_text())
-            temps = np.asarray(data["temperatures_C"], dtype=float)
+            nodes = np.asarray(data.get("nodes_C", data["temperatures_C"]), dtype=float)
             elapsed = max(0.0, time.time() - float(data["wall_time_s"]))
         except FileNotFoundError:
             return
         except (ValueError, KeyError, TypeError) as err:
-            raise ValueError(f"unreadable coil state file {self.state_file}: {err}") from err
-        if temps.shape != (self.n,) or not np.all(np.isfinite(temps)):
-            return  # another design's state: start from ambient
+            raise ValueError(f"unreadable coil state file {self.state_file}: {err}") from None
+        if nodes.shape != np.shape(self.node_state) or not np.all(np.isfinite(nodes)):
+            return  # another design's (or model's) state: start from ambient
         if elapsed > 3600.0:
             return  # an hour off: every coil is back at ambient
-        # cool each coil with the same thermal model for the time since the last run (no current)
-        steps = min(1000, max(1, math.ceil(elapsed / 1.0)))
-        for i in range(self.n):
-            t_c = float(temps[i])
-            for _ in range(steps):
-                t_c = float(self.thermal.step(t_c, 0.0, elapsed / steps))
-            self.temperatures[i] = max(self.ambient_C, t_c) if math.isfinite(t_c) else temps[i]
+        # cool every node with the same thermal model for the time since the last run (no current);
+        # the model is implicit, so a few steps are stable and accurate enough
+        x = nodes
+        steps = min(100, max(1, math.ceil(elapsed / 1.0)))
+        for _ in range(steps):
+            x = np.asarray(self.model.step_state(x, np.zeros(self.n), elapsed / steps), dtype=float)
+        if np.all(np.isfinite(x)):
+            self.node_state = np.maximum(x, self.ambient_C)

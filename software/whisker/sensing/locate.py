@@ -92,24 +92,30 @@ def sweep_levels(amplitude: float, duration_s: float, fps: float, period_s: floa
 
 
 def sweep_heat(design, amplitude: float, duration_s: float, start_C: float | None = None) -> dict:
-    """Heat the sweep costs in the coil (whisker.coil.thermal.CoilThermal, 50 % of the time on):
-    peak temperature (C), rise (K), electrical energy (J), and the limit (C): where the thermal guard
-    (whisker.drive.guard) starts derating, so the whole sweep runs at the commanded level."""
-    from whisker.coil.thermal import CoilThermal
+    """Heat the sweep costs in the coil (the thermal network whisker.coil.thermal_network, one coil
+    driven 50 % of the time): peak winding temperature (C), rise (K), electrical energy (J), and the limit
+    (C): where the thermal guard (whisker.drive.guard) starts derating on the materials at the winding
+    (its enamel and the bobbin resin), so the whole sweep runs at the commanded level."""
+    from whisker.coil.thermal_network import ThermalNetwork
     from whisker.drive.guard import full_scale_voltage
 
-    th = CoilThermal(design)
-    T0 = th.ambient_C if start_C is None else float(start_C)
+    net = ThermalNetwork(design)
+    T0 = net.ambient_C if start_C is None else float(start_C)
+    x = net.initial_state(T0)
     volts = abs(float(amplitude)) * full_scale_voltage(design)
-    T, steps = T0, max(10, int(duration_s / 0.01))
+    v = np.zeros(net.n)
+    v[0] = volts * math.sqrt(0.5)                  # mean power of a 50 % square: half of V^2/R
+    steps = max(10, int(duration_s / 0.01))
     energy = 0.0
     for _ in range(steps):
-        energy += 0.5 * volts ** 2 / float(th.resistance(T)) * duration_s / steps
-        T = th.step_voltage(T, volts, duration_s / steps, duty=0.5)
+        r = float(net.r20_ohm * (1.0 + net.alpha * (net.winding_C(x)[0] - 20.0)))
+        energy += 0.5 * volts ** 2 / r * duration_s / steps
+        x = net.step_state(x, None, duration_s / steps, volts=v)
+    T = float(net.winding_C(x)[0])
     # the guard starts derating drive.guard_derate_band below its cut-off: past that the applied torque
     # would no longer be the commanded one, so that is the sweep's limit
-    cut = th.limit_C - float(design.drive.guard_margin) - float(design.drive.guard_derate_band)
-    return {"start_C": T0, "peak_C": float(T), "rise_K": float(T - T0), "energy_J": float(energy), "cut_C": cut}
+    cut = net.winding_limit_C - float(design.drive.guard_margin) - float(design.drive.guard_derate_band)
+    return {"start_C": T0, "peak_C": T, "rise_K": T - T0, "energy_J": float(energy), "cut_C": cut}
 
 
 def check_sweep(design, amplitude: float, duration_s: float, start_C: float | None = None) -> dict:

@@ -67,9 +67,10 @@ def volts_to_level(design, volts: float) -> float:
 
 
 def coil_thermal(design):
-    """A lumped coil thermal model with .ambient_C, .limit_C, .step(T, I, dt) (whisker.coil.thermal)."""
-    m = _mod("whisker.coil.thermal", "the heating effect")
-    return m.CoilThermal(design)
+    """The sensor's thermal network (whisker.coil.thermal_network.ThermalNetwork, the guard's model):
+    .ambient_C, .initial_state(), .step_state(state, I_rms (n,), dt), .winding_C(state)."""
+    m = _mod("whisker.coil.thermal_network", "the heating effect")
+    return m.ThermalNetwork(design)
 
 
 def marker_pixels(design, xyz_mm, mtx=None, dist=None, model: str = "standard") -> np.ndarray:

@@ -34,7 +34,8 @@ class Drive:
         if self.heating:
             from whisker.sim.contract import coil_thermal
             self.thermal = coil_thermal(design)
-            self.T = np.full(n, float(self.thermal.ambient_C))
+            self.state = self.thermal.initial_state()
+            self.T = np.asarray(self.thermal.winding_C(self.state), dtype=float).copy()
         else:
             self.T = np.full(n, 20.0)
         self.model = scene.fidelity.magnetics
@@ -68,8 +69,8 @@ class Drive:
             return
         self._heat_acc += dt
         if self._heat_acc >= self.scene.fidelity.heating_interval - 1e-12:
-            self.T = np.array([self.thermal.step(float(T), float(i), self._heat_acc)
-                               for T, i in zip(self.T, self._I_rms)])
+            self.state = self.thermal.step_state(self.state, self._I_rms, self._heat_acc)
+            self.T = np.asarray(self.thermal.winding_C(self.state), dtype=float).copy()
             self._heat_acc = 0.0
             self._key = None                       # resistance changed: recompute currents
             check_finite("coil temperature", self.T, 0.0)

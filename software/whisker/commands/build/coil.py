@@ -213,33 +213,43 @@ def fit_stiffness_cmd(design, points, amps):
 @coil_options
 @click.option("--volts", type=float, default=None, help="Volts across the coil (default: actuation.voltage).")
 @click.option("--duty", type=click.FloatRange(0, 1), default=1.0, show_default=True, help="PWM duty.")
-@click.option("--seconds", type=float, default=None, help="Duration (default: 4 thermal time constants).")
+@click.option("--seconds", type=float, default=60.0, show_default=True, help="Duration, s.")
 @click.option("--step", type=float, default=1.0, show_default=True, help="Print interval, s.")
-@click.option("--convection", type=click.Choice(["constant", "churchill_chu"]), default="constant",
-              show_default=True, help="Constant thermal.convection_coefficient, or Churchill-Chu h(T).")
 @_guard
-def thermal(design, volts, duty, seconds, step, convection):
-    """Coil temperature against time at a voltage and duty; time to each limit; safe duty."""
-    from whisker.coil.thermal import CoilThermal
+def thermal(design, volts, duty, seconds, step):
+    """Every coil at a voltage (V) and PWM duty from ambient: each part's temperature (C) against time
+    (s) from the thermal network (whisker.coil.thermal_network), the time to each material's limit and
+    the safe duty."""
+    import math
+
+    import numpy as np
+
+    from whisker.coil import thermal_network as tn
 
     v = design.actuation.voltage if volts is None else volts
-    th = CoilThermal(design, convection=convection)
-    s = {"limit": th.limit_name, "limit_C": th.limit_C, "safe_duty": th.safe_duty(v)}
-    t_end = seconds or 4.0 * th.time_constant_s
-    if not step > 0 or t_end < 0:
+    if not (math.isfinite(v) and v >= 0):
+        fail(f"--volts must be a finite voltage >= 0 (got {v!r})")
+    t_end = seconds
+    if not step > 0 or not (t_end >= 0):
         fail(f"--step must be > 0 s and --seconds >= 0 (got step {step:g}, seconds {t_end:g})")
     if t_end / step > MAX_THERMAL_ROWS:
         fail(f"--seconds {t_end:g} / --step {step:g} is {t_end / step:.3g} rows, over {MAX_THERMAL_ROWS}; "
              "give a larger --step")
-    click.echo(f"{v:g} V, duty {duty:g}: steady state {th.steady_state_C(v, duty):.0f} C; first limit "
-               f"{s['limit']} {s['limit_C']:g} C after {th.time_to_C(th.limit_C, v, duty):.3g} s; "
-               f"safe duty {s['safe_duty'] * 100:.1f} %")
-    click.echo("t_s   T_C")
-    t, T = 0.0, th.ambient_C
-    while t <= t_end + 1e-9:
-        click.echo(f"{t:6.1f} {T:7.2f}")
-        T = th.step_voltage(T, v, step, duty)
-        t += step
+    net = tn.ThermalNetwork(design)
+    times = tn.time_to_limits_s(net, v, duty)
+    first = min(times, key=times.get)
+    ss = tn.steady_state_at_volts(net, v, duty)
+    t_first = "never" if math.isinf(times[first]) else f"{times[first]:.3g} s"
+    click.echo(f"{v:g} V, duty {duty:g} on every coil: steady winding {float(net.winding_C(ss)[0]):.0f} C; "
+               f"first limit {first if t_first != 'never' else net.limit_label} after {t_first}; "
+               f"safe duty {tn.safe_duty(net, v) * 100:.1f} %")
+    names = list(tn.PER_WHISKER) + list(tn.SHARED)
+    click.echo("t_s    " + "  ".join(f"{n[:8]:>8s}" for n in names) + "   (C)")
+    ts, xs = tn.run_at_volts(net, v, max(t_end, step), duty=duty, dt_s=min(step, 0.05))
+    for k in range(int(round(t_end / step)) + 1):
+        i = int(np.argmin(np.abs(ts - k * step)))
+        nt = net.node_temperatures(xs[i])
+        click.echo(f"{ts[i]:6.1f} " + "  ".join(f"{float(nt[n][0]):8.2f}" for n in names))
 
 
 @cli.command()

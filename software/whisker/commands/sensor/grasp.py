@@ -15,7 +15,9 @@ def sequence_options(f):
     f = click.option("--release-level", type=click.FloatRange(-1, 0), default=0.0, show_default=True,
                      help="Level during release (0 = neutral; negative pushes the object off).")(f)
     f = click.option("--hold-level", type=click.FloatRange(0, 1), default=None,
-                     help="Level while holding (default: the grasp level; lower = cooler coils).")(f)
+                     help="Level while holding (default: the highest level at which this retract + hold "
+                          "keeps every coil out of the guard's derate band, from the thermal network: "
+                          "whisker.drive.thermal_protocol.fit_hold_level; lower = cooler coils).")(f)
     f = click.option("--release-s", type=click.FloatRange(0, 600), default=1.0, show_default=True,
                      help="Seconds of the release phase.")(f)
     f = click.option("--hold-s", type=click.FloatRange(0, 600), default=3.0, show_default=True,
@@ -26,10 +28,21 @@ def sequence_options(f):
 
 
 def build_sequence(design, which, start, level, hold_level, retract_s, hold_s, release_s, release_level):
+    """The grasp's steps; without a --hold-level the holding level is the highest with which the
+    retract at `level` and the hold stay out of the thermal guard's derate band on every coil of the
+    configuration (whisker.drive.thermal_protocol.fit_hold_level: the thermal network, every material's
+    own limit), so the guard never drops a held object."""
     from whisker.drive.actuation import configuration
     from whisker.drive.sequences import grasp_sequence
 
     mask = configuration(design.whiskers.count, which, start)
+    if hold_level is None:
+        from whisker.drive.thermal_protocol import Protocol, fit_hold_level
+
+        proto = Protocol(close_s=retract_s, lift_mm=0.0, hold_s=hold_s, release_s=0.0)
+        hold_level = fit_hold_level(design, abs(level), proto, active=mask, resolution=0.005)
+        click.echo(f"holding level {hold_level:.3f} (grasp level {abs(level):.3f}): the highest that keeps "
+                   f"every material out of the guard's derate band for {retract_s:g} s + {hold_s:g} s", err=True)
     return grasp_sequence(design.whiskers.count, mask, level, retract_s=retract_s, hold_s=hold_s,
                           release_s=release_s, hold_level=hold_level, release_level=release_level)
 
@@ -81,7 +94,10 @@ def cli(design, backend, which, start, level, volts, policy, release_level, hold
                     if trial + 1 < trials:
                         time.sleep(pause_s)
                 g = act.guard
-                click.echo(f"done: peak coil temperature {g.peak_C.max():.1f} C (estimated, cut at "
-                           f"{g.cut_C:.0f} C), guard trips {g.trips.tolist()}", err=True)
+                why = next((r for r in g.trip_reason if r), "")
+                click.echo(f"done: peak winding temperature {g.peak_C.max():.1f} C (estimated; every material "
+                           f"held {design.drive.guard_margin:g} C below its own limit, the weakest: "
+                           f"{g.limit_label}), guard trips {g.trips.tolist()}"
+                           + (f", on {why}" if why else ""), err=True)
     except (RatingError, ValueError, RuntimeError) as err:
         fail(f"grasp: {err}")

@@ -76,11 +76,11 @@ def objects_in_reach(scene: Scene, design, margin_mm: float = 1.0) -> list[str]:
 
 
 def predicted_rise_K(scene: Scene, design) -> float:
-    """Largest coil temperature rise the schedule would cause (whisker.coil.thermal, heated by the PWM's RMS
-    current), K.
+    """Largest coil temperature rise the schedule would cause (the thermal network
+    whisker.coil.thermal_network, heated by the PWM's RMS current), K.
 
-    The schedule is piecewise constant, so each coil is stepped once per segment (CoilThermal.step
-    sub-steps internally).
+    The schedule is piecewise constant, so the network is stepped once per segment (its step
+    sub-steps internally, implicitly).
     """
     from whisker.sim.contract import coil_thermal, current_A, pwm_rms_current_A
 
@@ -93,16 +93,17 @@ def predicted_rise_K(scene: Scene, design) -> float:
     th = coil_thermal(design)
     T0 = float(th.ambient_C)
     cuts = sorted({0.0, duration, *[e.t for e in scene.actuation.schedule if e.t < duration]})
-    T = np.full(n, T0)
+    x = th.initial_state()
     peak = 0.0
     for a, b in zip(cuts, cuts[1:]):
         lv = levels_at(scene, n, a)
         if not np.any(lv):
-            T = np.array([th.step(float(T[i]), 0.0, b - a) for i in range(n)])
+            x = th.step_state(x, np.zeros(n), b - a)
             continue
+        T = th.winding_C(x)
         I = pwm_rms_current_A(np.atleast_1d(current_A(design, np.abs(lv) * volts, T)), lv)
-        T = np.array([th.step(float(T[i]), float(I[i]), b - a) for i in range(n)])
-        peak = max(peak, float(np.max(T - T0)))
+        x = th.step_state(x, np.broadcast_to(I, (n,)), b - a)
+        peak = max(peak, float(np.max(th.winding_C(x) - T0)))
     return peak
 
 
