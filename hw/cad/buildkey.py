@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from pathlib import Path
 
 import whisker
@@ -57,3 +58,29 @@ def up_to_date(out: str | Path, d: Design, formats: tuple[str, ...] = FORMATS) -
         return all(file_sha256(out / name) == digest for name, digest in hashes.items())
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return False
+
+
+_STEP_STAMP = re.compile(rb"^(FILE_NAME\('[^']*',)'[^']*'", re.M)
+_STEP_ID = re.compile(rb"#\d+")
+_STEP_STYLE = b"MECHANICAL_DESIGN_GEOMETRIC_PRESENTATION_REPRESENTATION"
+
+
+def content_sha256(path: str | Path) -> str:
+    """Hash of what a file holds, for the reproduction test (tests/test_exports.py), hex.
+
+    STL files are hashed as they are: OpenCASCADE's tessellation writes the same bytes on every run
+    (checked by building twice). A STEP file carries its write time in FILE_NAME, and an assembly's
+    colour section (after the first MECHANICAL_DESIGN_GEOMETRIC_PRESENTATION_REPRESENTATION) comes in
+    a different order from run to run; the hash leaves out the time and takes that section's entities
+    as a sorted list with their ``#n`` ids blanked (which colours are used, not in which order).
+    """
+    data = Path(path).read_bytes()
+    if Path(path).suffix.lower() not in (".step", ".stp"):
+        return hashlib.sha256(data).hexdigest()
+    data = _STEP_STAMP.sub(rb"\1''", data, count=1)
+    head, sep, tail = data.partition(_STEP_STYLE)
+    if sep:
+        body, _, end = (sep + tail).rpartition(b"ENDSEC;")
+        ents = sorted(_STEP_ID.sub(b"#", e.strip()) for e in body.split(b";") if e.strip())
+        data = head + b";".join(ents) + b"ENDSEC;" + end
+    return hashlib.sha256(data).hexdigest()
