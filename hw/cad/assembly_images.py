@@ -49,7 +49,7 @@ ROD_VIEW_ABOVE = 12.0
 @dataclass(frozen=True)
 class View:
     """One picture: `placed` parts in neutral colours, `new` parts moved along `path` to their place."""
-    name: str                     # short name for the file: step_NN_<slug>.png
+    name: str                     # short name for the file: <slug>.png
     title: str                    # the step's name as the sequence or the guide says it
     placed: tuple[str, ...]       # part names (sequence.PIECES keys or casting part names)
     new: tuple[str, ...]
@@ -60,8 +60,10 @@ class View:
     staggered: bool = False       # the new parts go in one after the other: drawn 1x, 2x, ... as far out
     after: tuple[str, ...] = ()   # steps that must be done first (the sequence's `after`)
 
-    def file_name(self, index: int) -> str:
-        return f"step_{index:02d}_{slug(self.name)}.png"
+    def file_name(self, index: int = 0) -> str:
+        """The picture's file, named for the step and not numbered: docs/build.md is the one numbering
+        of the build (`index` is kept for callers that pass it)."""
+        return f"{slug(self.name)}.png"
 
 
 def slug(text: str) -> str:
@@ -117,13 +119,13 @@ def path_text(view: View, d: Design) -> str:
 
 def sequence_table(d: Design, image_dir: str = "images/assembly") -> str:
     """The Markdown table of docs/assembly.md: one row per view, from the sequence data."""
-    rows = ["| # | step | new parts | path | first | variant | picture |", "| --- | --- | --- | --- | --- | --- | --- |"]
+    rows = ["| step | new parts | path | first | variant | picture |", "| --- | --- | --- | --- | --- | --- |"]
     for i, v in enumerate(views(), start=1):
         parts = ", ".join(PART_WORDS.get(p, p) for p in v.new)
         first = "; ".join(v.after) or "-"
         src = f"{image_dir}/{v.file_name(i)}"
         img = f'<a href="{src}"><img src="{src}" alt="{v.name}" width="260"></a>'
-        rows.append(f"| {i} | {v.title} | {parts} | {path_text(v, d)} | {first} | {v.variant} | {img} |")
+        rows.append(f"| {v.title} | {parts} | {path_text(v, d)} | {first} | {v.variant} | {img} |")
     return "\n".join(rows)
 
 
@@ -243,7 +245,7 @@ def _palette(png: bytes, colours: int = 128) -> bytes:
 def write_assembly_images(d: Design, out: Path, size_px: tuple[int, int] = (900, 700),
                           only: Callable[[int, View], bool] | None = None,
                           progress: Callable[[str], None] | None = None) -> list[Path]:
-    """One PNG per view into `out` (step_NN_<name>.png, NN from 01), each written atomically."""
+    """One PNG per view into `out` (<name>.png), each written atomically."""
     out = Path(out)
     say = progress or (lambda msg: None)
     cache: dict = {}

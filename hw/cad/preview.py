@@ -128,6 +128,11 @@ def assembly_meshes(d: Design, out: Path, manifest: dict) -> list[tuple[trimesh.
     return items
 
 
+#: Parts printed in resin, not FDM (no print pose in the manifest), shown as modelled: the build guide
+#: names their picture.
+RESIN_PREVIEW = ("bobbin",)
+
+
 def write_previews(d: Design, out: Path, images: Path, size_px: tuple[int, int] = (900, 700),
                    progress: Callable[[str], None] | None = None) -> list[Path]:
     """One PNG per printable part (``<part>.png``) and ``assembly.png`` into ``images``."""
@@ -136,11 +141,12 @@ def write_previews(d: Design, out: Path, images: Path, size_px: tuple[int, int] 
     say = progress or (lambda name: None)
     paths = []
     for name, part in manifest["parts"].items():
-        if not part.get("printable"):
+        if not part.get("printable") and name not in RESIN_PREVIEW:
             continue
         mesh = _load(out, manifest, name, False)
         x, y, z = mesh.extents
-        title = f"{name} ({x:.0f} x {y:.0f} x {z:.0f} mm, as printed)"
+        title = (f"{name} ({x:.1f} x {y:.1f} x {z:.1f} mm, resin print, docs/build.md)" if name in RESIN_PREVIEW
+                 else f"{name} ({x:.0f} x {y:.0f} x {z:.0f} mm, as printed)")
         png = render([(mesh, COLORS.get(name, "#cccccc"))], title, size_px, bed=(d.print.bed_x, d.print.bed_y))
         paths.append(atomic_write_bytes(images / f"{name}.png", png))
         say(name)
