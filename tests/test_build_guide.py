@@ -29,13 +29,20 @@ def test_page_is_generated_from_the_data(data):
     assert block == guide.render(tools, steps, bom), "docs/build.md is stale: run `make guide`"
 
 
-def test_every_picture_named_in_the_guide_exists(data):
+def test_every_picture_named_in_the_guide_exists_and_make_guide_makes_it(data):
+    from whisker.cad import guide_images
+    from whisker.design import default_design
+
     _, steps, _ = data
     text = (DOCS / "build.md").read_text()
     named = set(re.findall(r'src="([^"]+)"', text))
     assert {guide.picture(s) for s in steps} <= named
     missing = [p for p in named if not (DOCS / p).is_file()]
     assert not missing, f"pictures named in docs/build.md but not in docs/: {missing} (make guide)"
+    made = guide_images.generated(default_design())
+    assert named <= made, f"pictures `make guide` does not regenerate: {sorted(named - made)}"
+    mk = (ROOT / "mk" / "guide.mk").read_text()
+    assert "write_guide_images" in mk and "print preview" in mk and "guide: assembly-images" in mk
 
 
 def test_every_sequence_step_is_carried_out_once_in_order(data):

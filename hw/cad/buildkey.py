@@ -74,8 +74,12 @@ def content_sha256(path: str | Path) -> str:
     a different order from run to run; the hash leaves out the time and takes that section's entities
     as a sorted list with their ``#n`` ids blanked (which colours are used, not in which order).
     """
-    data = Path(path).read_bytes()
-    if Path(path).suffix.lower() not in (".step", ".stp"):
+    return content_digest(Path(path).read_bytes(), Path(path).suffix)
+
+
+def content_digest(data: bytes, suffix: str) -> str:
+    """:func:`content_sha256` of a file's bytes; `suffix` (".stl", ".step") says how to read them."""
+    if suffix.lower() not in (".step", ".stp"):
         return hashlib.sha256(data).hexdigest()
     data = _STEP_STAMP.sub(rb"\1''", data, count=1)
     head, sep, tail = data.partition(_STEP_STYLE)

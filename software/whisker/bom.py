@@ -224,13 +224,14 @@ def awg(diameter_mm: float) -> int:
 
 
 def led_strip(design: Design) -> tuple[float, int, float]:
-    """(channel circumference mm, whole segments that fit, strip length mm) for the LED channel."""
-    circ = 2 * math.pi * (design.cavity_radius + design.mount.led_strip_thickness)
-    segments = math.floor(circ / design.bom.led_cut_pitch)
-    if segments < 1:
-        raise BomError(f"the LED channel (circumference {circ:.1f} mm) is shorter than one strip segment "
-                       f"(bom.led_cut_pitch = {design.bom.led_cut_pitch} mm)")
-    return circ, segments, segments * design.bom.led_cut_pitch
+    """(channel circumference mm, whole segments that fit, strip length mm) for the LED channel
+    (whisker.design.sizing.led_strip, which the CAD draws too)."""
+    from whisker.design import DesignError, sizing
+
+    try:
+        return sizing.led_strip(design)
+    except DesignError as err:
+        raise BomError(str(err)) from None
 
 
 #: ST L298 datasheet, electrical characteristics: quiescent supply current IS <= 70 mA (pin 4, inputs

@@ -211,6 +211,20 @@ def coil_resistance(d: "Design", auto: frozenset = frozenset()) -> float:
 
 # ---- the rules --------------------------------------------------------------------------------
 
+def led_strip(d: "Design") -> tuple[float, int, float]:
+    """(channel circumference mm, whole strip segments that fit, strip length mm) of the LED channel:
+    the strip is bought and cut in whole segments of bom.led_cut_pitch, so it covers
+    segments x pitch of the 2 pi (cavity radius + strip thickness) channel. Raises DesignError
+    when not one segment fits."""
+    circ = 2 * math.pi * (d.cavity_radius + d.mount.led_strip_thickness)
+    segments = math.floor(circ / d.bom.led_cut_pitch)
+    if segments < 1:
+        from whisker.design.validation import DesignError
+        raise DesignError(f"the LED channel (circumference {circ:.1f} mm) is shorter than one strip segment "
+                          f"(bom.led_cut_pitch = {d.bom.led_cut_pitch} mm)")
+    return circ, segments, segments * d.bom.led_cut_pitch
+
+
 def membrane_sides(d: "Design", auto: frozenset = frozenset()) -> int:
     """The smallest multiple of whiskers.count with at least MIN_MEMBRANE_SIDES sides: the outline
     then has the ring's symmetry, each rod faces the middle of a flat (shapes.polygon_points puts a
