@@ -54,20 +54,37 @@ def column_x(d: Design) -> list[float]:
     return [lay["pitch"] * (k + 0.5) for k in range(len(d.print.coupon_clearances))]
 
 
+def coupon_tools(d: Design) -> dict[str, cq.Shape]:
+    """Every solid cut from the coupon, by name (the wall check names them): per clearance its rod
+    hole, magnet pocket and each engraved glyph of its label."""
+    lay = layout(d)
+    tools: dict[str, cq.Shape] = {}
+    for c, x in zip(d.print.coupon_clearances, column_x(d)):
+        tools[f"rod hole {c:g}"] = cq.Solid.makeCylinder(d.whiskers.rod_diameter / 2 + c, lay["plate_t"] + 2,
+                                                         cq.Vector(x, lay["rod_y"], -1), cq.Vector(0, 0, 1))
+        tools[f"magnet pocket {c:g}"] = cq.Solid.makeCylinder(d.magnet.diameter / 2 + c, lay["pocket_depth"] + 0.5,
+                                                              cq.Vector(x, lay["wall_y0"] - 0.5, lay["pocket_z"]),
+                                                              cq.Vector(0, 1, 0))
+        for k, g in enumerate(label_glyphs(d, c, x, lay["label_y"], lay["plate_t"])):
+            tools[f"label {c:g} glyph {k}"] = g
+    return tools
+
+
+def edges(d: Design) -> dict[str, cq.Shape]:
+    """The space around the plate's four sides, for the wall check."""
+    from .walls import outside_box
+
+    lay = layout(d)
+    return {"plate edge": outside_box((0.0, 0.0, 0.0), (lay["width"], lay["wall_y0"], lay["plate_t"]))}
+
+
 def tolerance_coupon(d: Design) -> cq.Shape:
     lay = layout(d)
     body = cq.Solid.makeBox(lay["width"], lay["depth"], lay["plate_t"])
     wall = cq.Solid.makeBox(lay["width"], lay["wall_t"], lay["wall_h"] + 0.01,
                             cq.Vector(0, lay["wall_y0"], lay["plate_t"] - 0.01))
     body = body.fuse(wall).clean()
-    tools: list[cq.Shape] = []
-    for c, x in zip(d.print.coupon_clearances, column_x(d)):
-        tools.append(cq.Solid.makeCylinder(d.whiskers.rod_diameter / 2 + c, lay["plate_t"] + 2,
-                                           cq.Vector(x, lay["rod_y"], -1), cq.Vector(0, 0, 1)))
-        tools.append(cq.Solid.makeCylinder(d.magnet.diameter / 2 + c, lay["pocket_depth"] + 0.5,
-                                           cq.Vector(x, lay["wall_y0"] - 0.5, lay["pocket_z"]), cq.Vector(0, 1, 0)))
-        tools += label_glyphs(d, c, x, lay["label_y"], lay["plate_t"])
-    return body.cut(*tools).clean()
+    return body.cut(*coupon_tools(d).values()).clean()
 
 
 def _glyph(ch: str, z: float) -> cq.Shape:

@@ -71,28 +71,46 @@ def picture(step: GuideStep, pictures: dict[str, str] | None = None) -> str:
     return step.picture
 
 
-def render(tools: dict[str, str], steps: list[GuideStep], bom: dict[str, dict[str, str]]) -> str:
-    """The tools list and one section per step, Markdown."""
+def render(tools: dict[str, str], steps: list[GuideStep], bom: dict[str, dict[str, str]], d=None) -> str:
+    """The tools list and one section per step, Markdown. The steps' text may name design values as
+    ``{d.section.key}`` (Python format fields, e.g. ``{d.bom.coil_lead_length:g}``): they are filled
+    from the design `d` (default: hw/sensor.toml), so no number of the design is typed in the guide."""
+    from whisker.design import load_design
+
+    d = load_design() if d is None else d
+
+    def fill(text: str) -> str:
+        try:
+            return text.format(d=d)
+        except (AttributeError, KeyError, IndexError, ValueError) as err:
+            raise DesignError(f"build steps: cannot fill {text[:40]!r}... from the design ({err})") from None
+
     pics = sequence_pictures()
     out = ["## Tools", "", "| tool | what |", "| --- | --- |"]
-    out += [f"| `{k}` | {v} |" for k, v in tools.items()]
+    out += [f"| `{k}` | {fill(v)} |" for k, v in tools.items()]
     for n, s in enumerate(steps, start=1):
-        out += ["", f"## Step {n}: {s.title}", ""]
+        title = fill(s.title)
+        out += ["", f"## Step {n}: {title}", ""]
         pic = picture(s, pics)
-        out += [f'<a href="{pic}"><img src="{pic}" alt="step {n}: {s.title}" width="420"></a>', ""]
+        out += [f'<a href="{pic}"><img src="{pic}" alt="step {n}: {title}" width="420"></a>', ""]
         if s.parts:
-            items = []
+            out += ["**Parts:**", ""]
             for item, q in s.parts:
                 row = bom.get(item, {})
-                qty = f"{row.get('quantity', '?')} {row.get('unit', '')}".strip() if q == "all" else q
-                items.append(f"{qty} x {row.get('description', item)} (`{item}`)")
-            out.append("**Parts:** " + "; ".join(items) + ".")
+                if q == "all":
+                    qty = f"{row.get('quantity', '?')} {row.get('unit', '')}".strip()
+                else:
+                    qty = f"{q} {row.get('unit', '')}".strip()
+                    if q != row.get("quantity"):  # a share of the line; the other steps use the rest
+                        qty += f" (of the BOM's {row.get('quantity', '?')})"
+                out.append(f"- {qty}: {row.get('description', item)} (`{item}`)")
+            out.append("")
         out.append("**Tools:** " + (", ".join(f"`{t}`" for t in s.tools) or "none") + ".")
         if s.sequence:
-            out.append(f"**Sequence:** `{s.sequence}` (checked by `whisker cad build`: hw/assembly_sequence.toml).")
-        out += ["", s.do, "", f"**Check:** {s.check}."]
+            out += ["", f"**Sequence:** `{s.sequence}` (checked by `whisker cad build`: hw/assembly_sequence.toml)."]
+        out += ["", fill(s.do), "", f"**Check:** {fill(s.check)}."]
         if s.command:
-            out += ["", f"```bash\n{s.command}\n```"]
+            out += ["", f"```bash\n{fill(s.command)}\n```"]
     return "\n".join(out)
 
 

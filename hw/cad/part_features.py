@@ -77,7 +77,7 @@ def all_printed(d: Design) -> dict[str, tuple[Features, float, list[str], dict[s
     """Every printed part's (features, thinnest wall in mm, features that must not meet any other,
     {feature: its own thinnest wall in mm}): the FDM parts at print.min_wall, the resin bobbin at
     bobbin.min_wall, the holes of heat-set inserts at the fastener table's insert wall."""
-    from . import adapter, bobbin, cover, winding_jig
+    from . import adapter, bobbin, coupon, cover, winding_jig
 
     own = insert_walls(d)
     out = {name: (fn(d), d.print.min_wall, [], own.get(name, {})) for name, fn in FEATURES.items()}
@@ -87,4 +87,7 @@ def all_printed(d: Design) -> dict[str, tuple[Features, float, list[str], dict[s
     out["cover"] = ({**cover.cover_tools(d), **cover.edges(d)}, d.print.min_wall, [], {})
     out["winding_jig"] = ({**winding_jig.jig_tools(d), **winding_jig.edges(d)}, d.print.min_wall, [], {})
     out["bobbin"] = ({**bobbin.bobbin_tools(d), **bobbin.edges(d)}, d.bobbin.min_wall, [], {})
+    # printed once; its engraved glyphs are features, so the plate between them keeps print.min_wall.
+    # (The board holder has one 6 mm push-out hole in a pedestal of the neck's size: no wall to check.)
+    out["tolerance_coupon"] = ({**coupon.coupon_tools(d), **coupon.edges(d)}, d.print.min_wall, [], {})
     return out
