@@ -1,9 +1,10 @@
 """The committed ready files (exports/) are what `make stl` builds from the current CAD (issue 29).
 
 STL bytes are the same on every run (OpenCASCADE's tessellation is deterministic: built twice, every
-STL identical); a STEP file differs between runs only in its write time and, for the assembly, the
-order of its colour entities, which the manifest's ``content_sha256`` leaves out
-(whisker.cad.buildkey.content_digest). The committed manifest is read from git (HEAD), because CI
+STL identical); a STEP file gets a fixed write time (SOURCE_DATE_EPOCH, else the epoch:
+whisker.cad.buildkey.step_timestamp), so the parts' STEP files are byte-identical too; the assembly's
+colour entities come in a different order from run to run, which the manifest's ``content_sha256``
+leaves out (whisker.cad.buildkey.content_digest). The committed manifest is read from git (HEAD), because CI
 runs `make stl` into exports/ before the tests.
 """
 
@@ -45,6 +46,9 @@ def test_make_stl_reproduces_the_committed_exports(default_build, committed):
     assert set(got) == set(want), f"files differ: new {sorted(set(got) - set(want))}, gone {sorted(set(want) - set(got))}"
     stale = sorted(n for n in want if want[n] != got[n])
     assert not stale, f"exports/ is stale for {stale}: run `make stl` and commit exports/"
+    # byte for byte, except the assembly's colour order: a rebuild leaves the committed files clean in git
+    moved = sorted(n for n in want if n != "assembly.step" and committed["file_sha256"][n] != fresh["file_sha256"][n])
+    assert not moved, f"{moved} differ byte for byte from the committed files"
     assert committed["design_digest"] == fresh["design_digest"]
     assert committed["all_checks_passed"] is True
 

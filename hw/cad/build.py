@@ -21,7 +21,7 @@ from whisker.files import atomic_write_json, drop_stale_staging, publish, stagin
 
 from . import checks, mold_checks, sequence
 from .assembly import export_step, sensor_assembly
-from .buildkey import FORMATS, build_key, content_sha256, file_sha256
+from .buildkey import FORMATS, build_key, content_sha256, file_sha256, fix_step_timestamp
 from .parts import PARTS, print_pose, print_transform
 
 
@@ -97,6 +97,7 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = FORMATS,
                 entry["files"]["stl"] = f"{spec.name}.stl"
             if "step" in formats:
                 cq.exporters.export(cq.Workplane().add(shape), str(tmp / f"{spec.name}.step"))
+                fix_step_timestamp(tmp / f"{spec.name}.step")
                 entry["files"]["step"] = f"{spec.name}.step"
             files += list(entry["files"].values())
             parts[spec.name] = entry
@@ -114,6 +115,7 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = FORMATS,
         if "step" in formats:
             say("exporting assembly")
             export_step(sensor_assembly(d, solids["mount"], solids["membrane"]), str(tmp / "assembly.step"))
+            fix_step_timestamp(tmp / "assembly.step")
             files.append("assembly.step")
 
         say("measuring the meshes")

@@ -65,6 +65,30 @@ _STEP_ID = re.compile(rb"#\d+")
 _STEP_STYLE = b"MECHANICAL_DESIGN_GEOMETRIC_PRESENTATION_REPRESENTATION"
 
 
+def step_timestamp() -> str:
+    """The write time put in every STEP file's FILE_NAME: SOURCE_DATE_EPOCH (the reproducible-builds
+    convention) when set, else the epoch, so a rebuild of unchanged parts writes the same bytes and
+    the committed exports/ stay clean in git."""
+    import os
+    from datetime import datetime, timezone
+
+    try:
+        t = int(os.environ.get("SOURCE_DATE_EPOCH", "0"))
+    except ValueError:
+        t = 0
+    return datetime.fromtimestamp(t, timezone.utc).strftime("%Y-%m-%dT%H:%M:%S")
+
+
+def fix_step_timestamp(path: str | Path) -> None:
+    """Rewrite the STEP file's FILE_NAME write time to :func:`step_timestamp` (in place; the file is
+    in the build's staging folder, published atomically afterwards)."""
+    p = Path(path)
+    data = p.read_bytes()
+    new = _STEP_STAMP.sub(rb"\1'" + step_timestamp().encode() + rb"'", data, count=1)
+    if new != data:
+        p.write_bytes(new)
+
+
 def content_sha256(path: str | Path) -> str:
     """Hash of what a file holds, for the reproduction test (tests/test_exports.py), hex.
 
