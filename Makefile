@@ -21,7 +21,8 @@ help: ## list the targets
 	@grep -hE '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-12s %s\n",$$1,$$2}'
 
 # The environment is (re)made when pyproject.toml or the tested versions change: every extra
-# ([all]) plus the test tools, at the exact versions of constraints.txt (`make lock` renews it).
+# ([all]), the ROS 2 wheels ([ros]: x86-64 Linux, Python 3.11/3.12 only, so not part of [all]) and the
+# test tools, at the exact versions of constraints.txt (`make lock` renews it).
 CONSTRAINTS ?= constraints.txt
 $(BIN)/.installed: pyproject.toml $(CONSTRAINTS)
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -29,13 +30,13 @@ $(BIN)/.installed: pyproject.toml $(CONSTRAINTS)
 	@# opencv-python-headless (the earlier dependency) and opencv-contrib-python-headless share cv2/: remove both, reinstall one
 	if $(BIN)/python -m pip show -q opencv-python-headless 2>/dev/null; then \
 		$(BIN)/python -m pip uninstall -q -y opencv-python-headless opencv-contrib-python-headless; fi
-	$(BIN)/python -m pip install -q -c $(CONSTRAINTS) -e ".[all,test]"
+	$(BIN)/python -m pip install -q -c $(CONSTRAINTS) -e ".[all,ros,test]"
 	touch $@
 
 lock: ## newest versions within pyproject.toml's bounds into constraints.txt (then: make test)
 	rm -rf .venv-lock && $(PYTHON) -m venv .venv-lock
 	.venv-lock/bin/python -m pip install -q --upgrade pip
-	.venv-lock/bin/python -m pip install -q -e ".[all,test]"
+	.venv-lock/bin/python -m pip install -q -e ".[all,ros,test]"
 	{ sed -n '/^#/p' $(CONSTRAINTS); .venv-lock/bin/python -m pip freeze --all --exclude-editable \
 		| grep -v -e '^pip==' -e '^-e' -e '^whisker'; } > $(CONSTRAINTS).tmp
 	mv $(CONSTRAINTS).tmp $(CONSTRAINTS) && rm -rf .venv-lock

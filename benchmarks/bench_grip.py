@@ -28,6 +28,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from common import RESULTS, machine_line  # noqa: E402
 
 from whisker.files import atomic_write_text  # noqa: E402
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad  # noqa: E402
 from whisker.sim import load_scene, scene_design  # noqa: E402
 from whisker.sim.experiments import paper  # noqa: E402
 from whisker.sim.contract import current_A, full_scale_voltage  # noqa: E402
@@ -54,7 +55,7 @@ def main() -> None:
     free = math.degrees(float(static_equilibrium(design, body, np.array([i20])).theta_rad[0]))
     lines = ["# The grip behind the grasp table: tip force, weight, friction needed\n",
              f"Machine: {machine_line()}. Scene `grasp.toml`, design `hw/sensor.toml`: coil {design.coil.turns} turns, "
-             f"{design.coil.resistance:.2f} ohm (whisker.design.former), membrane k = {design.mechanics.rotational_stiffness:g} N mm/rad, "
+             f"{design.coil.resistance:.2f} ohm (whisker.design.former), membrane k = {design_stiffness_Nmm_per_rad(design):.4g} N mm/rad, "
              f"grasp at {volts:.2f} V (level {paper.grasp_level(design):.3f}), {i20 * 1e3:.0f} mA at 20 C; "
              f"pivot-to-tip lever {body.tip_m * 1e3:.1f} mm; free tilt (sensor facing down, no object) {free:.2f} deg.\n",
              "Normal force per tip N = (coil torque + gravity torque - k theta) / l_u at the tilt where the tip meets the "

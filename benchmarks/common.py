@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import io
 import platform
+import re
 import time
 from pathlib import Path
 from typing import Callable, Sequence
@@ -47,8 +48,31 @@ def markdown_table(rows: Sequence[dict], columns: Sequence[str], fmt: dict[str, 
     return "\n".join(out)
 
 
+#: A block another benchmark keeps inside a results file: `<!-- begin NAME -->` ... `<!-- end NAME -->`.
+BLOCK = re.compile(r"<!-- begin ([\w-]+) -->\n.*?<!-- end \1 -->\n", re.S)
+
+
 def write_text(name: str, text: str) -> Path:
-    return atomic_write_text(RESULTS / name, text)
+    """Write a results file; the marked blocks that other benchmarks put in it (see `write_block`)
+    are carried over (appended) when the new text lacks them."""
+    path = RESULTS / name
+    if path.exists():
+        have = {m.group(1) for m in BLOCK.finditer(text)}
+        kept = [m.group(0) for m in BLOCK.finditer(path.read_text()) if m.group(1) not in have]
+        if kept:
+            text = text.rstrip("\n") + "\n\n" + "\n".join(kept)
+    return atomic_write_text(path, text)
+
+
+def write_block(name: str, block: str, text: str) -> Path:
+    """Put `text` into results file `name` as the marked block `block` (replacing an earlier one, else
+    appended), so a benchmark can add its section to a file another benchmark writes."""
+    path = RESULTS / name
+    body = path.read_text() if path.exists() else ""
+    new = f"<!-- begin {block} -->\n{text.rstrip()}\n<!-- end {block} -->\n"
+    pat = re.compile(rf"<!-- begin {re.escape(block)} -->\n.*?<!-- end {re.escape(block)} -->\n", re.S)
+    body = pat.sub(lambda _: new, body) if pat.search(body) else body.rstrip("\n") + "\n\n" + new
+    return atomic_write_text(path, body)
 
 
 def save_figure(fig, name: str) -> Path:

@@ -2,7 +2,8 @@
 #   make classify-eval               the paper's MLP under every split protocol, 10 seeds, 10 objects
 #   make classify-eval OBJECTS=paper the paper's 5 objects
 #   make classify-train              train on all 10 objects (trial split reported) -> $(OUT)/classify/model.joblib
-#   make bench-classify              protocols, hidden x epochs cost grid, other models -> benchmarks/results/classify.md
+#   make bench-classify              protocols, hidden x epochs cost grid, other models, models beyond the paper,
+#                                    rotation pairing -> benchmarks/results/classify.md (--reuse: sections 5-6 only)
 PEER_DATA ?= $(or $(WHISKER_PEER_DATA),../shared/data/peer-whisker-2025)
 OBJECTS ?=
 CLASSIFY_OUT ?= $(OUT)/classify

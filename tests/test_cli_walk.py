@@ -129,6 +129,7 @@ def base_args(path: tuple[str, ...], w: Path, fresh: Path) -> list[str]:
         ("record",): ["--source", "synthetic:3", "--frames", "3", "--rest-frames", "1", "-q", "--out",
                       str(fresh / "session")],
         ("track",): ["--source", "synthetic:3", "--rest-frames", "1"],
+        ("ros",): ["--source", "sim", "--backend", "sim", "--duration", "1"],
         ("sim",): [scene, "--explain"],
         ("cad", "build"): ["--out", str(fresh / "exports")],
         ("cad", "sweep"): ["--counts", "8", "--radii", "12", "--out", str(fresh / "sweep")],

@@ -11,8 +11,11 @@ from hypothesis import given, settings, strategies as st
 from whisker import coil as C
 from whisker.coil import magnetics as M
 from whisker.design import DesignError, default_design
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
 
-D = default_design()
+# The free whisker (no end stop), whose snap-through these tests check; the default design's end stop
+# (actuation.end_stop) is tested in tests/test_tolerance.py.
+D = default_design("actuation.end_stop=false")
 # The paper's coil: 600 turns measuring 7 ohm (the default winds what fits the bobbin instead).
 PAPER = default_design("coil.turns=600", "coil.resistance=7.0")
 
@@ -109,7 +112,7 @@ def test_zero_current_is_rest():
 def test_small_current_linear_regime():
     i = 1e-4
     tau0 = float(C.torque_per_ampere_Nmm(D, 0.0))
-    expect = math.degrees(i * tau0 / D.mechanics.rotational_stiffness)
+    expect = math.degrees(i * tau0 / design_stiffness_Nmm_per_rad(D))
     assert abs(C.deflection_deg(D, i) / expect - 1) < 1e-3
 
 
@@ -138,7 +141,7 @@ def test_property_equilibrium_balances_torque(frac):
     eq = C.equilibrium(D, i)
     assert eq.stable
     th = math.radians(eq.theta_deg)
-    k = D.mechanics.rotational_stiffness
+    k = design_stiffness_Nmm_per_rad(D)
     assert abs(k * th - i * float(C.torque_per_ampere_Nmm(D, th))) < 1e-8
     # stable: the net restoring torque grows with tilt there
     dh = (i * float(C.torque_per_ampere_Nmm(D, th + 1e-6)) - k * (th + 1e-6)) - (i * float(C.torque_per_ampere_Nmm(D, th)) - k * th)
@@ -154,7 +157,7 @@ def test_deflection_vectorised_and_monotonic():
 
 def test_fit_stiffness_recovers_a_known_stiffness():
     k_true = 0.9
-    d = default_design(f"mechanics.rotational_stiffness={k_true}")
+    d = default_design(f"mechanics.rotational_stiffness={k_true}", "actuation.end_stop=false")
     i_pull, _ = C.pull_in(d)
     volts = np.array([0.3, 0.6, 0.9]) * i_pull * d.coil.resistance
     pts = [(v, C.deflection_deg(d, C.current_A(d, v))) for v in volts]
@@ -204,7 +207,7 @@ def test_property_winding_consistent(wire, fill, turns):
 
 @pytest.mark.parametrize("gap", [0.01, 0.05, 1.0, 5.4, 5.5, 8.0])
 def test_extreme_gaps_give_finite_answers(gap):
-    d = default_design(f"actuation.gap={gap}")
+    d = default_design(f"actuation.gap={gap}", "actuation.end_stop=false")
     i_pull, th_pull = C.pull_in(d)
     for i in (0.0, 0.05, 0.43, 2.0, -0.43):
         eq = C.equilibrium(d, i)
@@ -221,7 +224,7 @@ def test_report_json_finite_for_far_gap():
     from whisker.files import atomic_write_json
     import tempfile, os
 
-    rep = build_report(default_design("actuation.gap=8"))
+    rep = build_report(default_design("actuation.gap=8", "actuation.end_stop=false"))
     assert rep["deflection"]["pull_in_current_A"] is None
     assert "no pull-in" in format_report(rep)
     with tempfile.TemporaryDirectory() as tmp:

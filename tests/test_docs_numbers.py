@@ -192,6 +192,7 @@ CHECKS = [
 #: Numbers with "mm" in FILES that are not CAD dimensions of the default design, and why.
 EXEMPT = [
     (r"0\.5 mm steps", "a sizing rule's step (whisker.design.sizing)"),
+    (r"default 2\.5 mm mesh", "the membrane model's mesh (benchmarks/results/membrane.md; tests/test_membrane.py)"),
     (r"6 whiskers on a 10 mm ring", "a command-line example"),
     (r"--set whiskers\.ring_radius=10", "a command-line example"),
     (r"about 20 px, or 1\.9 mm, at the markers", "measured in the authors' frame"),

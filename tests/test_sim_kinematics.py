@@ -153,7 +153,7 @@ def test_whisker_actuate_cli_drives_the_simulator():
 def test_heating_effect_warms_the_coil_and_weakens_the_pull():
     base = {"scene": {"duration": 6.0, "timestep": 5e-3}, "sensor": {"facing": "down"},
             "actuation": {"schedule": [{"t": 0.0, "level": 1.0}, {"t": 0.01, "level": 1.0}]}}
-    d = default_design("drive.full_scale_voltage=2.0")               # level 1 = 2 V at the coil
+    d = default_design("drive.full_scale_voltage=1.0")               # level 1 = 1 V at the coil (short of the end stop)
     hot = simulate(scene_from_dict({**base, "fidelity": {"heating": "auto"}}), d)
     cold = simulate(scene_from_dict({**base, "fidelity": {"heating": "off"}}), d)
     assert hot.plan.built("heating") and not cold.plan.built("heating")

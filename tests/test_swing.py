@@ -33,10 +33,22 @@ def test_default_assembly_has_no_overlap_anywhere_over_the_swing(default):
 def test_a_flange_swinging_into_its_magnet_is_found_and_named():
     # 1 mm from the winding to the magnet leaves 0.65 mm to the flange: retracting 15 deg moves the
     # flange's lower corner out by ~1.8 mm, into the magnet
-    d = default_design("actuation.gap=1.0")
+    d = default_design("actuation.gap=1.0", "actuation.end_stop=false", "whiskers.max_deflection_deg=15")
     c = _run(d)["solids overlapping over the swing"]
     assert not c.ok and "bobbin" in c.detail and "magnet" in c.detail and "tilt +" in c.detail
     assert "\n" not in c.line() and "actuation.gap" in c.line()
+
+
+def test_the_end_stop_post_is_what_meets_the_magnet(default):
+    """The default's swing ends on the stop: the post touches its magnet there and, just past it, is the
+    only thing inside it; a stop tilt beyond the flange's reach is refused by the design, in one line."""
+    from whisker.design.validation import DesignError
+
+    (c,) = swing.end_stop_check(default)
+    assert c.ok and c.value == 0.0 and "post in the magnet" in c.detail
+    assert swing.end_stop_check(default_design("actuation.end_stop=false")) == []
+    with pytest.raises(DesignError, match="flange meets the magnet"):
+        swing.end_stop_check(default_design("whiskers.max_deflection_deg=15"))
 
 
 def test_a_lead_through_a_wall_without_an_exit_is_found(monkeypatch, default):

@@ -5,7 +5,9 @@ The layout (whisker 0, sensor coordinates, mm) is whisker.design.former's: the *
 the rod in a blind socket in it, outside the winding, and two lead holes beside the socket through
 which the leads run down to the tab's lower face, glued there (the strain relief; whisker.design.leads);
 the tab's lower face is the marker face the camera sees (the red dot goes there); the *core* with a
-bore on the coil axis (for a 0.3 mm pin, or just to save resin); the *outer flange*. The winding
+bore on the coil axis (for a 0.3 mm pin, or just to save resin); the *outer flange*, and on it, with
+``actuation.end_stop``, the end-stop post that meets the magnet's face at the stop tilt
+(whisker.design.stop). The winding
 fills the window between tab and flange up to ``bobbin.rim_margin`` under the rim; the turns that
 fit, their resistance and wire length come from whisker.coil.winding on that window.
 """
@@ -17,6 +19,7 @@ import cadquery as cq
 from whisker import coil as coil_calc
 from whisker.design import former
 from whisker.design import Design
+from whisker.design.stop import end_stop
 
 from .shapes import cut_all, cylinder, radial_cylinder
 
@@ -56,7 +59,12 @@ def bobbin(d: Design) -> cq.Shape:
                            cq.Vector(L["tab"][0], -c.outer_diameter / 2, L["tab_bottom"]))
     core = radial_cylinder(L["core"][0] - 0.01, L["core"][1] + 0.01, c.inner_diameter, d.coil_axis_z, 0.0)
     flange = radial_cylinder(L["flange"][0], L["flange"][1], c.outer_diameter, d.coil_axis_z, 0.0)
-    return cut_all(tab.fuse(core, flange).clean(), bobbin_tools(d).values())
+    parts = [core, flange]
+    stop = end_stop(d)
+    if stop is not None:   # the end-stop post: meets the magnet's face at the stop tilt (whisker.design.stop)
+        parts.append(radial_cylinder(L["outer_x"] - 0.01, L["outer_x"] + stop.post_length_mm, stop.post_diameter_mm,
+                                     d.coil_axis_z, 0.0))
+    return cut_all(tab.fuse(*parts).clean(), bobbin_tools(d).values())
 
 
 def winding_envelope(d: Design) -> cq.Shape:

@@ -128,9 +128,39 @@ def swing_check(d: Design, mount: cq.Shape, membrane: cq.Shape) -> list[Check]:
     out.append(make_check("solids overlapping over the swing", "assembly", worst, worst <= VOLUME_EPS, "0", "mm^3",
                       ("whiskers.max_deflection_deg", "bobbin.tab", "coil.length", "actuation.gap",
                        "mount.cable_exit_count", "membrane.inscribed_radius"), where))
+    out += end_stop_check(d)
     rep = leads.length_report(d)
     need = rep["needed_to_outside_mm"]
     out.append(make_check("coil lead length for the full swing", "assembly", d.bom.coil_lead_length,
                       d.bom.coil_lead_length >= need, f">= {need:.3g}", "mm", ("bom.coil_lead_length",),
                       f"longest taut path {rep['longest_free_mm']:.3g} mm, swing slack {rep['swing_slack_mm']:.3g} mm"))
     return out
+
+
+#: deg past the stop at which the end-stop check looks: the post must be the first thing to meet the magnet
+STOP_PROBE_DEG = 0.5
+
+
+def end_stop_check(d: Design) -> list[Check]:
+    """With ``actuation.end_stop``: the swing above ends at the stop tilt, where the bobbin's post just
+    touches its magnet; STOP_PROBE_DEG further, the post overlaps the magnet (it is what stops the
+    whisker) while the winding and the rest of the bobbin (without its post) stay clear."""
+    from whisker.design.stop import end_stop
+
+    s = end_stop(d)
+    if s is None:
+        return []
+    tilt = s.tilt_deg + STOP_PROBE_DEG
+    pose = _pose(d, d.whisker_angles_deg[0], tilt)
+    mag = _manifold(reference.magnet(d, d.whisker_angles_deg[0]))
+    post = _manifold(former.bobbin(d)).transform(pose)
+    bare = _manifold(former.bobbin(d.model_copy(update={"actuation": d.actuation.model_copy(
+        update={"end_stop": False})}))).transform(pose)
+    wind = _manifold(former.winding_envelope(d)).transform(pose)
+    v_post, v_rest = _overlaps(post, mag), max(_overlaps(bare, mag), _overlaps(wind, mag))
+    ok = v_post > VOLUME_EPS and v_rest <= VOLUME_EPS
+    return [make_check("end stop: the post meets the magnet first", "assembly", v_rest, ok, "0", "mm^3",
+                       ("actuation.end_stop", "whiskers.max_deflection_deg", "bobbin.stop_post_diameter",
+                        "actuation.gap"),
+                       f"{STOP_PROBE_DEG:g} deg past the stop ({s.tilt_deg:g} deg): post in the magnet "
+                       f"{v_post:.3g} mm^3, flange and winding {v_rest:.3g} mm^3")]

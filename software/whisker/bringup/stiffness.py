@@ -22,6 +22,8 @@ import math
 
 import numpy as np
 
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
+
 STOP_MARGIN_DEG = 0.5  # tilts within this of whiskers.max_deflection_deg are taken as resting on the stop
 K_SPREAD = 0.03        # ... and the stiffness changes by less than this fraction over that interval
 GAP_IDENTIFIED = 0.4    # 2-sigma interval width / gap below which the fitted rest gap is reported as identified
@@ -143,7 +145,7 @@ def fit(design, volts, tilts_deg, fit_gap: bool = True, temperatures_C=None) -> 
     t = th[ok]
     gap0 = design.actuation.gap
     result = {"points": int(ok.sum()), "design_gap_mm": gap0, "design_stiffness_Nmm_per_rad":
-              design.mechanics.rotational_stiffness}
+              design_stiffness_Nmm_per_rad(design)}
     gaps = np.linspace(0.5 * gap0, 1.5 * gap0, 81)
     lever = _lever(design)
     gaps = gaps[gaps > lever * np.sin(np.max(t)) + 0.05]    # the coil must not reach the magnet at any point
@@ -220,8 +222,8 @@ def plot_png(design, volts, tilts_deg, result: dict) -> bytes:
         ax.plot(v, t[:, w], "o", ms=3.5, alpha=0.7, label="measured (each whisker)" if w == 0 else None)
     ax.plot(grid, curve_deg(design, result["rotational_stiffness_Nmm_per_rad"], result["gap_mm"], grid), "k-",
             label=f"fit: k = {result['rotational_stiffness_Nmm_per_rad']:.3g} N mm/rad, gap {result['gap_mm']:.2f} mm")
-    ax.plot(grid, curve_deg(design, design.mechanics.rotational_stiffness, design.actuation.gap, grid), "k--",
-            alpha=0.5, label=f"design: k = {design.mechanics.rotational_stiffness:g}, gap {design.actuation.gap:g} mm")
+    ax.plot(grid, curve_deg(design, design_stiffness_Nmm_per_rad(design), design.actuation.gap, grid), "k--",
+            alpha=0.5, label=f"design: k = {design_stiffness_Nmm_per_rad(design):.3g}, gap {design.actuation.gap:g} mm")
     ax.set_xlabel("coil voltage (V)")
     ax.set_ylabel("tilt (deg, + = retraction)")
     ax.set_title("Whisker tilt against coil voltage (paper Fig. 4 protocol)")
@@ -232,3 +234,50 @@ def plot_png(design, volts, tilts_deg, result: dict) -> bytes:
     fig.savefig(buf, format="png", dpi=120)
     plt.close(fig)
     return buf.getvalue()
+
+
+def bringup_levels(design, per_whisker_k) -> dict:
+    """Each whisker's measured safe level and grasp level from its fitted stiffness (N*mm/rad).
+
+    Levels are PWM duties (whisker.drive.guard: level x full-scale volts = mean volts at the coil); a
+    level's current is taken with the cold (20 C) coil, the largest current a level gives.
+    - Without an end stop: safe level = the current 20 % below this whisker's pull-in current
+      (whisker.coil.tilt.pull_in with its stiffness; issue 27's margin); grasp level = actuation.voltage's
+      level, lowered to the safe level where that is smaller.
+    - With an end stop pull-in lands on the stop, so the safe level is the rating; grasp level = the
+      level that reaches this whisker's stop (whisker.coil.tilt.stop_reach_current_A) with the hottest coil
+      of hw/tolerances.csv and whisker.coil.tolerance.BRINGUP_MARGIN, never below actuation.voltage's
+      level, never above the rating (the study's "bringup" drive).
+    Whiskers without a fit (None) get the rating and actuation.voltage's level. ``short``: whiskers
+    whose stop needs more than the rating.
+    """
+    from whisker.coil import tolerance
+    from whisker.coil.tilt import pull_in, stop_reach_current_A
+    from whisker.design.wire import temperature_factor
+    from whisker.drive.guard import full_scale_voltage, max_level
+
+    r20 = float(design.coil.resistance)
+    i_fs = full_scale_voltage(design) / r20            # A at level 1, cold coil
+    top = max_level(design)
+    base = min(top, design.actuation.voltage / full_scale_voltage(design))
+    tol = tolerance.load_tolerances()
+    hot = float(temperature_factor(tol["coil_temperature"].hi) / temperature_factor(20.0))
+    safe, grasp, short = [], [], []
+    for i, k in enumerate(per_whisker_k):
+        if k is None or not (k > 0 and math.isfinite(k)):
+            safe.append(top)
+            grasp.append(base)
+            continue
+        reach = stop_reach_current_A(design, k)
+        if reach is None:
+            s = min(top, pull_in(design, k)[0] / (1.0 + tolerance.PULL_IN_MARGIN) / i_fs)
+            safe.append(s)
+            grasp.append(min(base, s))
+        else:
+            need = reach * hot * (1.0 + tolerance.BRINGUP_MARGIN) / i_fs
+            if need > top:
+                short.append(i)
+            safe.append(top)
+            grasp.append(min(top, max(base, need)))
+    return {"safe_levels": [round(x, 4) for x in safe], "grasp_levels": [round(x, 4) for x in grasp],
+            "short_of_stop": short}

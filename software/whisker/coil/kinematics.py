@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
+
 G = 9.81  # m/s^2
 
 
@@ -83,12 +85,14 @@ def whisker_body(design, coil_mass_g: float | None = None) -> WhiskerBody:
     m = rod_m + coil_m
     com = (rod_m * rod_com - coil_m * lever) / m
     J = j_rod + j_coil
-    k = mech.rotational_stiffness * 1e-3                   # N*mm/rad -> N*m/rad
+    k = design_stiffness_Nmm_per_rad(design) * 1e-3       # N*mm/rad -> N*m/rad
     c = 2 * mech.damping_ratio * math.sqrt(k * J)
     gap0 = design.actuation.gap
     lever_mm = lever / mm
     stop_gap = math.asin(min(1.0, gap0 / lever_mm)) if lever_mm > 0 else math.pi / 2
-    stop = min(stop_gap, math.radians(w.max_deflection_deg))  # the coil meets the magnet, or the design's limit
+    # the coil meets the magnet, or the design's limit: with actuation.end_stop the bobbin's post meets the
+    # magnet exactly there (whisker.design.stop), so pull-in lands on the stop as in whisker.coil.tilt
+    stop = min(stop_gap, math.radians(w.max_deflection_deg))
     return WhiskerBody(mass_kg=m, inertia_kgm2=J, com_m=com, stiffness=k, damping=c, lever_m=lever,
                        gap0_mm=gap0, stop_rad=stop, tip_m=top, rod_radius_m=r, rod_bottom_m=bottom,
                        rod_top_m=top, coil_mass_kg=coil_m, rod_mass_kg=rod_m)

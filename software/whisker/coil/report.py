@@ -14,8 +14,45 @@ from whisker import coil
 from whisker.coil import driver
 from whisker.coil import magnetics
 from whisker.coil import thermal
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad, stiffness_source
 
 REPORT_GAPS_MM = (0.2, 0.5, 1.0, 2.0, 2.5, 5.0, 10.0)
+#: built sensors in the report's build-scatter study (Latin hypercube, seed 0): ~0.5 s; the yield's
+#: 95 % interval at this size is about +-1 % near 99 % (benchmarks/results/tolerance.md has larger runs)
+REPORT_SENSORS = 400
+
+
+def margin_and_yield(design, volts: float, sensors: int = REPORT_SENSORS) -> dict:
+    """Margin to pull-in at nominal values and the build yield (whisker.coil.tolerance) at `volts`."""
+
+    from whisker.coil import tolerance
+
+    d = design if volts == design.actuation.voltage else design.model_copy(
+        update={"actuation": replace_actuation(design, volts)})
+    res = {}
+    for name, drive in (("voltage", tolerance.Drive("voltage")), ("bringup", tolerance.Drive("bringup"))):
+        r = tolerance.study(d, sensors, drive)
+        res[name] = {"yield": r.yield_, "yield_ci95": list(r.yield_ci95), "p_pull_in": r.p_pull_in,
+                     "p_coil_on_magnet": r.p_coil_on_magnet, "p_short": r.p_short,
+                     "tilt_percentiles_deg": r.tilt_percentiles_deg}
+    return {"sensors": sensors, "whiskers_per_sensor": r.whiskers_per_sensor,
+            "stiffness_Nmm_per_rad": r.stiffness_Nmm_per_rad, "stiffness_source": r.stiffness_source,
+            "grasp_current_A": r.grasp_current_nominal_A, "pull_in_current_A": r.pull_in_current_nominal_A,
+            "pull_in_margin": r.pull_in_margin_nominal, "end_stop": r.end_stop,
+            "stop_reach_current_A": r.stop_reach_current_nominal_A, "holding": r.holding,
+            "target_tilt_deg": r.target_tilt_deg, "drives": res}
+
+
+def _build_or_missing(design, volts: float) -> dict:
+    try:
+        return margin_and_yield(design, volts)
+    except ModuleNotFoundError as err:   # SALib is the [tolerance] extra; the rest of the report stands
+        from whisker.extras import missing_extra_message
+        return {"missing": missing_extra_message(err, "the build yield") or str(err)}
+
+
+def replace_actuation(design, volts: float):
+    return design.actuation.model_copy(update={"voltage": float(volts)})
 
 
 def build_report(design, volts: float | None = None) -> dict:
@@ -57,7 +94,8 @@ def build_report(design, volts: float | None = None) -> dict:
         "torque_at_rest_Nmm": k_rest * i20 * coil.lever_mm(design),
     }
     defl = {
-        "rotational_stiffness_Nmm_per_rad": design.mechanics.rotational_stiffness,
+        "rotational_stiffness_Nmm_per_rad": design_stiffness_Nmm_per_rad(design),
+        "stiffness_source": stiffness_source(design),
         "equilibrium": eq.to_dict(),
         "pull_in_current_A": i_pull if math.isfinite(i_pull) else None,
         "pull_in_volts": i_pull * r20 if math.isfinite(i_pull) else None,
@@ -73,12 +111,36 @@ def build_report(design, volts: float | None = None) -> dict:
         "thermal": thermal.summary(design, v),
         "driver": driver.plan(design, v),
         "drivers": driver.compare_drivers(design),
+        "build": _build_or_missing(design, v),
     }
     return rep
 
 
 def _f(x, fmt=".3g"):
     return "n/a" if x is None else format(x, fmt)
+
+
+def _build_lines(L: list, b: dict, e: dict) -> None:
+    """The report's margin-and-yield lines."""
+    L.append(f"MARGIN AND BUILD YIELD at {e['volts_at_coil']:g} V ({b['sensors']} built sensors of "
+             f"{b['whiskers_per_sensor']} whiskers, hw/tolerances.csv, whisker.coil.tolerance; stiffness "
+             f"{b['stiffness_Nmm_per_rad']:.3g} N*mm/rad from {b['stiffness_source']})")
+    if b["pull_in_margin"] is None:
+        L.append("  no pull-in: the coil cannot reach the magnet")
+    else:
+        L.append(f"  margin to pull-in in coil current at nominal values: {b['pull_in_margin'] * 100:+.1f} % "
+                 f"({b['pull_in_current_A']:.3f} A against {b['grasp_current_A']:.3f} A; the no-stop target is >= +20 %)")
+    if b["end_stop"]:
+        h = b["holding"]
+        L.append(f"  end stop at {h['tilt_deg']:g} deg (coil {h['stop_gap_mm']:.2f} mm from the magnet), reached from "
+                 f"{b['stop_reach_current_A']:.3f} A; holding at {b['grasp_current_A']:.3f} A: {h['holding_torque_Nmm']:.3f} "
+                 f"N*mm, {h['post_force_mN']:.1f} mN on the post, lifted off by {h['tip_force_mN']:.2f} mN at the tip")
+    for name, r in b["drives"].items():
+        what = ("one level for every whisker" if name == "voltage" else
+                "levels raised per whisker at bring-up (whisker calibrate stiffness)")
+        L.append(f"  yield {r['yield'] * 100:.1f} % (95 % {r['yield_ci95'][0] * 100:.1f}-{r['yield_ci95'][1] * 100:.1f}) "
+                 f"with {what}; per whisker P(pull-in) {r['p_pull_in'] * 100:.1f} %, coil on magnet "
+                 f"{r['p_coil_on_magnet'] * 100:.2f} %, short of {b['target_tilt_deg']:.1f} deg {r['p_short'] * 100:.2f} %")
 
 
 def format_report(rep: dict) -> str:
@@ -117,7 +179,7 @@ def format_report(rep: dict) -> str:
         L.append(f"  NOTE: force uses coil.turns = {w['turns']}; if the coil has the {n_m} turns its measured "
                  f"resistance implies, every force and torque here is {n_m / w['turns']:.2f}x")
     eq = d["equilibrium"]
-    L.append(f"DEFLECTION (rotational stiffness {d['rotational_stiffness_Nmm_per_rad']:g} N*mm/rad)")
+    L.append(f"DEFLECTION (rotational stiffness {d['rotational_stiffness_Nmm_per_rad']:.4g} N*mm/rad from the {d['stiffness_source']})")
     if eq["stable"]:
         L.append(f"  steady tilt {eq['theta_deg']:.2f} deg, gap {eq['gap_mm']:.2f} mm ({eq['message']})")
     else:
@@ -127,6 +189,11 @@ def format_report(rep: dict) -> str:
     else:
         L.append(f"  pull-in (snap-through) above {d['pull_in_current_A']:.3f} A = {d['pull_in_volts']:.2f} V, "
                  f"at {d['pull_in_theta_deg']:.1f} deg")
+    b = rep["build"]
+    if "missing" in b:
+        L.append(f"MARGIN AND BUILD YIELD: {b['missing']}")
+    else:
+        _build_lines(L, b, e)
     L.append(f"THERMAL at {t['volts']:g} V continuous (ambient {t['ambient_C']:g} C)")
     L.append(f"  heat capacity {t['heat_capacity_J_per_K'] * 1e3:.0f} mJ/K, cooling {t['conductance_W_per_K'] * 1e3:.2f} mW/K, "
              f"time constant {t['time_constant_s']:.1f} s, {t['heating_rate_cold_K_per_s']:.1f} K/s at first")

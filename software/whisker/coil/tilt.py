@@ -23,6 +23,8 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from whisker.coil import magnetics
+from whisker.design.stop import stop_tilt_rad
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
 from whisker.design.wire import (ALPHA20_PER_K, COPPER_DENSITY_G_CM3, COPPER_SPECIFIC_HEAT, ENAMEL_DENSITY_G_CM3,  # noqa: F401
                                  ENAMEL_SPECIFIC_HEAT, ORTHOCYCLIC_PACKING, RHO20_OHM_MM2_PER_M, CoilError, _build,
                                  _positive, enamel_overall_diameter_mm, ohm_per_m, temperature_factor, wire_length_mm)
@@ -253,6 +255,8 @@ class Equilibrium:
     pull_in_theta_deg: float | None  # the coil cannot reach the magnet); tilt just before pull-in
     exceeds_max_deflection: bool     # beyond whiskers.max_deflection_deg
     message: str
+    at_stop: bool = False            # resting on the end stop (actuation.end_stop; whisker.design.stop)
+    holding_torque_Nmm: float | None = None  # at the stop: magnetic minus membrane torque pressing it on
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -271,7 +275,7 @@ def pull_in(design, stiffness_Nmm_per_rad: float | None = None, model: str = "ta
     reaches the magnet at that current. Returns (math.inf, pi/2) when the gap is at least the lever:
     the coil cannot reach the magnet, and every current has a stable tilt.
     """
-    k_rot = design.mechanics.rotational_stiffness if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
+    k_rot = design_stiffness_Nmm_per_rad(design) if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
     th_c = _theta_contact(design)
     if design.actuation.gap >= lever_mm(design):
         return math.inf, math.pi / 2.0
@@ -295,11 +299,14 @@ def equilibrium(design, current_A: float, model: str = "table",
     I = float(current_A)
     if not math.isfinite(I):
         raise CoilError(f"current_A must be finite (got {current_A!r})")
-    k_rot = design.mechanics.rotational_stiffness if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
+    k_rot = design_stiffness_Nmm_per_rad(design) if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
     _positive("rotational_stiffness", k_rot)
     max_dev = design.whiskers.max_deflection_deg
     i_pull, th_pull = pull_in(design, k_rot, model)
     th_c = _theta_contact(design)
+    th_s = stop_tilt_rad(design)
+    th_end = th_c if th_s is None else min(th_c, th_s)
+    at_stop, hold = False, None
 
     def h(th):
         return I * torque_per_ampere_Nmm(design, th, model=model) - k_rot * th
@@ -307,13 +314,17 @@ def equilibrium(design, current_A: float, model: str = "table",
     if I == 0.0:
         th, stable, msg = 0.0, True, "no current: rest"
     elif I > 0:
-        grid = np.linspace(0.0, th_c, 2001)
+        grid = np.linspace(0.0, th_end, 2001)
         hv = h(grid)
         neg = np.nonzero(hv[1:] <= 0.0)[0]
         if len(neg):
             j = neg[0] + 1
             th = brentq(h, grid[j - 1], grid[j], xtol=1e-12) if hv[j] < 0 else float(grid[j])
             stable, msg = True, "stable"
+        elif th_s is not None:
+            th, stable, at_stop, hold = th_end, True, True, float(h(th_end))
+            msg = (f"on the end stop at {math.degrees(th_end):.1f} deg, holding torque {hold:.3g} N*mm"
+                   + (f" (pulled in: {I:.3g} A > {i_pull:.3g} A)" if I > i_pull and th_pull < th_s else ""))
         else:
             th, stable = th_c, False
             msg = (f"snap-through: {I:.3g} A exceeds the pull-in current {i_pull:.3g} A; the coil is "
@@ -323,12 +334,42 @@ def equilibrium(design, current_A: float, model: str = "table",
         th = brentq(h, lo, 0.0, xtol=1e-12)
         stable, msg = True, "stable (pushing)"
     th_deg = math.degrees(th)
-    exceeds = abs(th_deg) > max_dev
+    exceeds = abs(th_deg) > max_dev + 1e-9
     if stable and exceeds:
         msg += f"; beyond whiskers.max_deflection_deg ({max_dev:g} deg)"
     reach = math.isfinite(i_pull)
     return Equilibrium(I, th_deg, float(gap_at_mm(design, th)), stable, i_pull if reach else None,
-                       math.degrees(th_pull) if reach else None, exceeds, msg)
+                       math.degrees(th_pull) if reach else None, exceeds, msg, at_stop, hold)
+
+
+def stop_reach_current_A(design, stiffness_Nmm_per_rad: float | None = None, model: str = "table") -> float | None:
+    """Smallest retracting current that brings the whisker onto its end stop, A (None without a stop).
+
+    max of k_rot theta / tau(theta) over (0, theta_stop]: every smaller current has a stable tilt before it.
+    """
+    th_s = stop_tilt_rad(design)
+    if th_s is None:
+        return None
+    k_rot = design_stiffness_Nmm_per_rad(design) if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
+    th = np.linspace(0.0, min(th_s, _theta_contact(design)), 2001)[1:]
+    return float(np.max(k_rot * th / torque_per_ampere_Nmm(design, th, model=model)))
+
+
+def holding_at_stop(design, current_A: float, stiffness_Nmm_per_rad: float | None = None,
+                    model: str = "table") -> dict | None:
+    """What the end stop holds at a current: net torque (N*mm), the force on the post (mN) and the tip
+    force that lifts the whisker off the stop (mN, on the pivot-to-tip lever l_u). None without a stop;
+    a negative torque means the current does not reach the stop."""
+    from whisker.design.stop import end_stop
+
+    s = end_stop(design)
+    if s is None:
+        return None
+    k_rot = design_stiffness_Nmm_per_rad(design) if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad
+    th = math.radians(s.tilt_deg)
+    tau = float(current_A) * float(torque_per_ampere_Nmm(design, th, model=model)) - k_rot * th
+    return {"tilt_deg": s.tilt_deg, "stop_gap_mm": s.gap_mm, "holding_torque_Nmm": tau,
+            "post_force_mN": tau / s.contact_arm_mm * 1e3, "tip_force_mN": tau / design.l_u * 1e3}
 
 
 def deflection_deg(design, current_A, model: str = "table"):

@@ -33,45 +33,17 @@ import numpy as np
 
 from whisker.data.dataset import (PEER_SCALE, DatasetError, WhiskerDataset, as_samples, augment_rotations,
                              check_plausible)
+from whisker.data.models import PAPER_PARAMS, _scale, make_classifier  # noqa: F401  (the paper's MLP; old model files name _scale here)
 
 PROTOCOLS = ("paper", "random", "random+rot", "trial", "trial+rot", "pose", "pose+rot")
 PAPER_ACCURACY = 0.9917
 """The paper's test accuracy on its 5 objects (Sec. 3.1)."""
-
-PAPER_PARAMS = dict(hidden=32, epochs=10, lr=0.01, batch_size=16, scale=PEER_SCALE)
-"""The paper's MLP: 32 ReLU units, Adam lr 0.01, 10 epochs, batch 16 (notebook), inputs / 229."""
 
 MODEL_FORMAT = 2
 """Model file format: 2 = a dict with the model, its classes, version info and FEATURE_LAYOUT."""
 FEATURE_LAYOUT = "records x whiskers x (dx_px, dy_px), flattened in that order"
 _BUNDLE_KEYS = {"model": object, "classes": list, "n_records": int, "n_whiskers": int, "versions": dict,
                 "feature_layout": str}
-
-
-def _scale(X, scale=PEER_SCALE):
-    """Input step of the pipeline: px -> px / scale (module-level so the model pickles)."""
-    return np.asarray(X, dtype=float) / scale
-
-
-def make_classifier(hidden: int = 32, epochs: int = 10, lr: float = 0.01, batch_size: int = 16,
-                    scale: float = PEER_SCALE, seed: int | None = None):
-    """The paper's MLP as a scikit-learn Pipeline (1/scale input step + `MLPClassifier`).
-
-    ``epochs`` are full passes with Adam (``max_iter``; early stopping can not trigger before the
-    last epoch). ConvergenceWarning after so few epochs is expected and silenced in `fit_quiet`.
-    """
-    from sklearn.neural_network import MLPClassifier
-    from sklearn.pipeline import make_pipeline
-    from sklearn.preprocessing import FunctionTransformer
-
-    if hidden < 1 or epochs < 1 or lr <= 0 or batch_size < 1 or scale <= 0:
-        raise ValueError(f"bad classifier parameters hidden={hidden} epochs={epochs} lr={lr} "
-                         f"batch_size={batch_size} scale={scale}")
-    mlp = MLPClassifier(hidden_layer_sizes=(int(hidden),), activation="relu", solver="adam",
-                        learning_rate_init=lr, max_iter=int(epochs), batch_size=int(batch_size),
-                        alpha=0.0, shuffle=True, n_iter_no_change=int(epochs) + 1, tol=0.0,
-                        random_state=seed)
-    return make_pipeline(FunctionTransformer(_scale, kw_args={"scale": float(scale)}), mlp)
 
 
 def fit_quiet(model, X, y):
@@ -175,12 +147,16 @@ class RunResult:
     classes: tuple
 
 
-def run(ds: WhiskerDataset, protocol: str, seed: int = 0, test_size: float = 0.3, **params) -> RunResult:
-    """Split, train the MLP (params as `make_classifier`), test; timings in seconds."""
+def run(ds: WhiskerDataset, protocol: str, seed: int = 0, test_size: float = 0.3, kind: str = "mlp",
+        **params) -> RunResult:
+    """Split, train a model of `whisker.data.models.KINDS` (``mlp`` = the paper's; params as
+    `whisker.data.models.make_model`), test; timings in seconds."""
     from sklearn.metrics import confusion_matrix
 
+    from whisker.data.models import make_model
+
     train, test = split(ds, protocol, seed, test_size)
-    model = make_classifier(seed=seed, **{**PAPER_PARAMS, **params})
+    model = make_model(kind, seed=seed, n_records=ds.n_records, n_whiskers=ds.n_whiskers, **params)
     t0 = time.perf_counter()
     fit_quiet(model, train.features(), train.y)
     t1 = time.perf_counter()
@@ -194,14 +170,17 @@ def run(ds: WhiskerDataset, protocol: str, seed: int = 0, test_size: float = 0.3
 
 
 def study(ds: WhiskerDataset, protocols=PROTOCOLS, seeds=range(10), progress: bool = False,
-          **params) -> list[RunResult]:
-    """`run` for every protocol and seed (progress bar on stderr if asked)."""
+          n_jobs: int = 1, kind: str = "mlp", **params) -> list[RunResult]:
+    """`run` for every protocol and seed, the fits spread over ``n_jobs`` joblib workers (progress bar
+    on stderr if asked). Results come back in (protocol, seed) order whatever ``n_jobs``."""
+    from joblib import Parallel, delayed
+
     jobs = [(p, s) for p in protocols for s in seeds]
     if progress:
         from tqdm import tqdm
 
-        jobs = tqdm(jobs, desc="classify", unit="fit")
-    return [run(ds, p, s, **params) for p, s in jobs]
+        jobs = tqdm(jobs, desc=f"classify {kind}", unit="fit")
+    return Parallel(n_jobs=n_jobs)(delayed(run)(ds, p, s, kind=kind, **params) for p, s in jobs)
 
 
 def summarize(results: list[RunResult]) -> dict:

@@ -14,7 +14,7 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator
 
 
-def _auto_or(lo: float, hi: float, unit: str, integer: bool = False) -> BeforeValidator:
+def _auto_or(lo: float, hi: float, unit: str, integer: bool = False, auto: str = "sized from the ring") -> BeforeValidator:
     """A value that is either "auto" (its rule in whisker.design.sizing decides) or a number in (lo, hi]."""
     def check(v):
         if v == "auto":
@@ -22,7 +22,7 @@ def _auto_or(lo: float, hi: float, unit: str, integer: bool = False) -> BeforeVa
         ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) and lo < v <= hi
         if not ok or (integer and v != int(v)):
             kind = "a whole number" if integer else "a number"
-            raise ValueError(f'must be "auto" (sized from the ring) or {kind} in ({lo:g}, {hi:g}] {unit}')
+            raise ValueError(f'must be "auto" ({auto}) or {kind} in ({lo:g}, {hi:g}] {unit}')
         return int(v) if integer else float(v)
     return BeforeValidator(check)
 
@@ -32,6 +32,9 @@ AutoMm = Annotated[Literal["auto"] | float, _auto_or(0, 1000, "mm")]
 AutoCount = Annotated[Literal["auto"] | int, _auto_or(0, 64, "", integer=True)]
 AutoTurns = Annotated[Literal["auto"] | int, _auto_or(0, 100000, "turns", integer=True)]
 AutoOhm = Annotated[Literal["auto"] | float, _auto_or(0, 1e6, "ohm")]
+# "auto" stays in the design and is resolved by whisker.mechanics.membrane.design_stiffness_Nmm_per_rad (the
+# finite-element model sits in the layer above the design model, like driver.series_resistance's rule).
+AutoStiffness = Annotated[Literal["auto"] | float, _auto_or(0, 1e4, "N*mm/rad", auto="the membrane model")]
 # Finite physical bounds for plain sizes: a part on this printer is never a metre long.
 Mm = Annotated[float, Field(gt=0, le=1000)]
 
@@ -82,6 +85,9 @@ class Magnet(_Section):
 class Actuation(_Section):
     gap: float = Field(gt=0, le=50, description="mm between the winding's outer face and the magnet face at rest")
     voltage: float = Field(gt=0, le=50, description="V at the coil for grasping")
+    end_stop: bool = Field(False, description=(
+        "a post on the bobbin's outer flange meets the magnet's face at whiskers.max_deflection_deg: "
+        "retraction (and pull-in) ends on it, coil clear of the magnet (whisker.design.stop)"))
 
 
 class Camera(_Section):
@@ -227,9 +233,12 @@ class Export(_Section):
 
 
 class Mechanics(_Section):
-    rotational_stiffness: float = Field(gt=0, le=1e4, description="N*mm/rad about a whisker's pivot")
+    rotational_stiffness: AutoStiffness = Field(description=(
+        "N*mm/rad about a whisker's pivot; auto: the membrane's finite-element model from its geometry and "
+        "the silicone's data (whisker.mechanics.membrane), a number overrides it (e.g. `whisker calibrate stiffness`)"))
     damping_ratio: float = Field(ge=0, le=100, description="dimensionless")
     rod_density: float = Field(gt=0, le=25, description="g/cm^3")
+    rod_modulus: float = Field(125.0, gt=0, le=1000, description="GPa, Young's modulus of the rod in bending")
     tip_friction: float = Field(ge=0, le=10, description="Coulomb coefficient of the tips")
 
 
@@ -270,6 +279,12 @@ class Drive(_Section):
     guard_derate_band: float = Field(ge=0, le=200, description="C below the cut-off where derating starts")
     guard_hysteresis: float = Field(gt=0, le=200, description="C a cut coil cools below the cut-off before re-use")
     guard_period: float = Field(gt=0, le=1, description="s between thermal-guard updates")
+    safe_levels: tuple[Annotated[float, Field(gt=0, le=1)], ...] = Field((), description=(
+        "per whisker, the largest |level| measured safe at bring-up (whisker calibrate stiffness); higher "
+        "levels are refused; () = the rating only"))
+    grasp_levels: tuple[Annotated[float, Field(gt=0, le=1)], ...] = Field((), description=(
+        "per whisker, the retract level set at bring-up (whisker calibrate stiffness): reaches the end stop "
+        "hot, with margin; () = actuation.voltage for every whisker"))
 
 
 class Wiring(_Section):
@@ -356,6 +371,8 @@ class Bobbin(_Section):
     socket_depth: float = Field(2.0, gt=0, le=20, description="mm of rod above the coil axis in the tab, at most")
     lead_hole: float = Field(0.35, gt=0, le=2, description="mm, the two lead holes beside the rod")
     min_wall: float = Field(0.3, gt=0, le=5, description="mm, the resin process's thinnest wall")
+    stop_post_diameter: float = Field(1.0, gt=0, le=10, description=(
+        "mm, the end-stop post on the outer flange (actuation.end_stop); its length follows from the stop tilt"))
 
 
 class WindingJig(_Section):

@@ -204,17 +204,20 @@ class Actuator:
         """Every coil without current (whiskers return to rest under the membrane's stiffness)."""
         return self.apply(np.zeros(self.n), "neutral")
 
-    def _masked(self, which, level: float, start: int = 0) -> np.ndarray:
+    def _masked(self, which, level, start: int = 0) -> np.ndarray:
         mask = configuration(self.n, which, start)
-        return np.where(mask, float(level), 0.0)
+        return np.where(mask, np.asarray(level, dtype=float), 0.0)
 
     def retract(self, level: Optional[float] = None, which="all", start: int = 0) -> np.ndarray:
         """Tips toward the centre on the whiskers of configuration `which` (others neutral).
 
-        level: duty in (0, 1]; default = actuation.voltage (3 V) / full-scale voltage.
+        level: duty in (0, 1]; default = each whisker's drive.grasp_levels from bring-up when set, else
+        actuation.voltage (3 V) / full-scale voltage.
         """
-        level = self.default_level() if level is None else float(level)
-        if level < 0:
+        if level is None:
+            g = self.design.drive.grasp_levels
+            level = np.asarray(g, dtype=float) if len(g) == self.n else self.default_level()
+        elif float(level) < 0:
             raise ValueError(f"retract level must be >= 0 (use extend), got {level}")
         return self.apply(self._masked(which, level, start), "retract")
 

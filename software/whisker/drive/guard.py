@@ -140,6 +140,16 @@ def check_levels(design, levels) -> np.ndarray:
             f"level {arr[i]:g} on whisker {i} means {abs(arr[i]) * full_scale_voltage(design):.3g} V "
             f"at the coil, above the coil rating drive.max_coil_voltage="
             f"{design.drive.max_coil_voltage:g} V (largest level {top:.3g})")
+    safe = design.drive.safe_levels
+    if safe:
+        if len(safe) != n:
+            raise RatingError(f"drive.safe_levels has {len(safe)} entries for {n} whiskers: re-run "
+                              "`whisker calibrate stiffness` for this sensor")
+        over = np.flatnonzero(np.abs(arr) > np.asarray(safe) + 1e-12)
+        if over.size:
+            i = int(over[0])
+            raise RatingError(f"level {arr[i]:g} on whisker {i} is above its measured safe level {safe[i]:.3g} "
+                              "(drive.safe_levels, from `whisker calibrate stiffness`)")
     return arr
 
 

@@ -30,6 +30,8 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
+
 
 @dataclass(frozen=True)
 class ForceModel:
@@ -64,7 +66,7 @@ class ForceModel:
         A = camera_rotation(design)[:2, :2]          # sensor xy -> image uv; its transpose the inverse
         ang = np.radians(np.asarray(design.whisker_angles_deg, dtype=float))
         radial = tuple(map(tuple, np.stack([np.cos(ang), np.sin(ang)], axis=1)))
-        k = float(design.mechanics.rotational_stiffness if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad)
+        k = float(design_stiffness_Nmm_per_rad(design) if stiffness_Nmm_per_rad is None else stiffness_Nmm_per_rad)
         return cls(k, float(design.l_u), float(design.l_l), float(design.mm_per_px), tuple(map(tuple, A.T)), radial,
                    coil_torque_fn(design) if coil else None)
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import click
 
 from whisker.cliutil import design_options, fail
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad, stiffness_source
 
 #: most rows `coil thermal` prints (one per --step)
 MAX_THERMAL_ROWS = 100_000
@@ -178,7 +179,7 @@ def deflection(design, volts):
     i_pull, th_pull = pull_in(design)
     pull = (f"pull-in above {i_pull:.3f} A = {i_pull * resistance_ohm(design):.2f} V (at {math.degrees(th_pull):.1f} deg)"
             if math.isfinite(i_pull) else "no pull-in (the coil cannot reach the magnet)")
-    click.echo(f"stiffness {design.mechanics.rotational_stiffness:g} N*mm/rad, gap {design.actuation.gap:g} mm; {pull}")
+    click.echo(f"stiffness {design_stiffness_Nmm_per_rad(design):.4g} N*mm/rad ({stiffness_source(design)}), gap {design.actuation.gap:g} mm; {pull}")
     click.echo("volts  current_A  tilt_deg  gap_mm  state")
     for v in vs:
         eq = equilibrium(design, current_A(design, float(v)))
@@ -262,3 +263,55 @@ def driver(design, volts, amps, series):
     rep["driver"] = drv.plan(design, volts, series=series)
     text = format_report(rep)
     click.echo(text[text.index("DRIVER"):])
+
+
+@cli.command()
+@coil_options
+@click.option("--sensors", type=click.IntRange(1, 1_000_000), default=2000, show_default=True,
+              help="Built sensors to draw (each of whiskers.count whiskers with its own draws).")
+@click.option("--drive", "drive_mode", type=click.Choice(["voltage", "current", "bringup"]), default="voltage",
+              show_default=True, help="voltage: one PWM level (actuation.voltage, V at the coil); current: a "
+              "regulated current (--amps, A); bringup: levels raised per whisker from `whisker calibrate stiffness`.")
+@click.option("--amps", type=click.FloatRange(0, 10, min_open=True), default=None,
+              help="Coil current for --drive current, A (default: actuation.voltage / coil.resistance).")
+@click.option("--sobol", "sobol_base", type=click.IntRange(0, 65536), default=0,
+              help="Also Sobol' indices with this base sample (runs = base x (factors + 2)); 0 = none.")
+@click.option("--tolerances", type=click.Path(dir_okay=False), default=None,
+              help="Tolerance table (default hw/tolerances.csv): name, level, kind, min, max, unit, applies_to, source.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--out", type=click.Path(file_okay=False), default=None,
+              help="Write tolerance.json there (atomically: a refused run leaves the old one).")
+@_guard
+def tolerance(design, sensors, drive_mode, amps, sobol_base, tolerances, seed, out):
+    """Build scatter: tilt at the grasp level, P(pull-in), build yield (%), Sobol' indices. docs/coil.md."""
+    from whisker.coil import tolerance as tol
+    from whisker.files import atomic_write_json
+
+    drive = tol.Drive(drive_mode, amps)
+    tol.load_tolerances(tolerances)          # refuse a bad table before any work
+    r = tol.study(design, sensors, drive, seed=seed, tolerances=tolerances)
+    rep = r.to_dict()
+    p = r.tilt_percentiles_deg
+    click.echo(f"{sensors} sensors x {r.whiskers_per_sensor} whiskers, drive {drive_mode}, "
+               f"{'end stop' if r.end_stop else 'no stop'}, stiffness {r.stiffness_Nmm_per_rad:.3g} N*mm/rad")
+    click.echo(f"nominal: grasp {r.grasp_current_nominal_A:.3f} A, " + (
+        "no pull-in" if r.pull_in_margin_nominal is None else
+        f"pull-in {r.pull_in_current_nominal_A:.3f} A (margin {r.pull_in_margin_nominal * 100:+.1f} %)"))
+    if r.holding:
+        h = r.holding
+        click.echo(f"end stop {h['tilt_deg']:g} deg: holding {h['holding_torque_Nmm']:.3f} N*mm, post "
+                   f"{h['post_force_mN']:.1f} mN, tip {h['tip_force_mN']:.2f} mN")
+    click.echo(f"yield {r.yield_ * 100:.2f} % (95 % {r.yield_ci95[0] * 100:.2f}-{r.yield_ci95[1] * 100:.2f}); per whisker "
+               f"P(pull-in) {r.p_pull_in * 100:.2f} %, coil on magnet {r.p_coil_on_magnet * 100:.2f} %, short of "
+               f"{r.target_tilt_deg:.1f} deg {r.p_short * 100:.2f} %")
+    if p:
+        click.echo("tilt deg: " + ", ".join(f"{k} {v:.2f}" for k, v in p.items()))
+    if sobol_base:
+        s = tol.sobol(design, sobol_base, drive, seed=seed, tolerances=tolerances)
+        rep["sobol"] = s
+        click.echo(f"Sobol' indices of {s['output']} ({s['runs']} runs): factor S1 ST")
+        for row in s["indices"]:
+            click.echo(f"  {row['factor']:20s} {row['S1']:6.3f} {row['ST']:6.3f} (+-{row['ST_conf']:.3f})")
+    if out:
+        atomic_write_json(Path(out) / "tolerance.json", rep)
+        click.echo(f"wrote {out}/tolerance.json", err=True)

@@ -27,6 +27,15 @@ def show(design, as_json):
     from whisker.design.camera_boards import describe
 
     derived = {**design.derived(), "digest": design.digest()}
+    # the stiffness "auto" is the membrane model's (whisker.mechanics.membrane), resolved here to show it;
+    # without the [fem] extra and off the shipped/cached geometries, the line says why instead
+    from whisker.mechanics.membrane import MembraneError, design_stiffness_Nmm_per_rad, stiffness_source
+    try:
+        derived["rotational_stiffness_Nmm_per_rad"] = design_stiffness_Nmm_per_rad(design)
+        derived["rotational_stiffness_source"] = stiffness_source(design)
+    except MembraneError as err:
+        derived["rotational_stiffness_Nmm_per_rad"] = None
+        derived["rotational_stiffness_source"] = str(err)
     data = design.to_dict()
     sources = {f"{sec}.{key}": design.source(f"{sec}.{key}") for sec, vals in data.items() for key in vals}
     boards = describe()

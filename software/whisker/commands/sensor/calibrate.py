@@ -14,6 +14,7 @@ from pathlib import Path
 import click
 
 from whisker.cliutil import design_options, fail
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
 
 
 @click.group()
@@ -360,6 +361,14 @@ def wiring(design, backend, source, out, volts, settle, min_px, calibration, sim
 
 # ---- stiffness --------------------------------------------------------------------------------------
 
+def _with_fit(design, res):
+    """The design with the fitted rest gap (when the data fix it), for the per-whisker levels."""
+    if not res.get("gap_identified"):
+        return design
+    from whisker.design import apply_overrides, design_from_dict
+    return design_from_dict(apply_overrides(design.to_dict(), [f"actuation.gap={res['gap_mm']:.4f}"]))
+
+
 @cli.command()
 @design_options
 @device_options
@@ -436,10 +445,21 @@ def stiffness(design, backend, source, out, steps, max_volts, settle, fixed_gap,
     res["volts"] = volts.tolist()
     res["tilts_deg"] = [[None if not np.isfinite(x) else float(x) for x in row] for row in tilts]
     k = res["rotational_stiffness_Nmm_per_rad"]
-    click.echo(f"rotational stiffness {k:.4g} N*mm/rad (design {design.mechanics.rotational_stiffness:g}), "
+    click.echo(f"rotational stiffness {k:.4g} N*mm/rad (design {design_stiffness_Nmm_per_rad(design):.4g}), "
                f"rest gap {res['gap_mm']:.3f} mm " + ("(fitted)" if res["gap_identified"] else
                                                      f"(design's: the data do not fix it, best {res['gap_best_mm']:.2f})")
                + f"; RMS residual {res['rms_residual_deg']:.3f} deg over {res['points']} points")
+    from whisker.bringup.stiffness import bringup_levels
+    try:
+        lv = bringup_levels(_with_fit(design, res), res["per_whisker_Nmm_per_rad"])
+    except ValueError as err:
+        fail(f"stiffness: {err}")
+    res.update(lv)
+    click.echo("per whisker: safe level " + " ".join(f"{x:.3f}" for x in lv["safe_levels"])
+               + "; grasp level " + " ".join(f"{x:.3f}" for x in lv["grasp_levels"]))
+    if lv["short_of_stop"]:
+        click.echo(f"WARNING: whisker(s) {', '.join(map(str, lv['short_of_stop']))} need more than the rating "
+                   "(drive.max_coil_voltage) to reach the end stop: check the magnet and the gap", err=True)
     stem = Path(out).with_suffix("") if out else Path("stiffness")
     try:
         atomic_write_bytes(f"{stem}.stiffness.png", plot_png(design, volts, tilts, res))
@@ -450,6 +470,9 @@ def stiffness(design, backend, source, out, steps, max_volts, settle, fixed_gap,
             if res["gap_identified"]:
                 text = set_keys(text, "actuation", {"gap": f"{res['gap_mm']:.3f}"},
                                 "mm, fitted by `whisker calibrate stiffness`")
+            text = set_keys(text, "drive", {"safe_levels": "[" + ", ".join(f"{x:.4g}" for x in lv["safe_levels"]) + "]",
+                                            "grasp_levels": "[" + ", ".join(f"{x:.4g}" for x in lv["grasp_levels"]) + "]"},
+                            "per whisker, set by `whisker calibrate stiffness`")
             atomic_write_text(out, text)
     except OSError as err:
         fail(f"stiffness: cannot write {stem}: {err}", 1)

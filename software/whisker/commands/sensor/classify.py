@@ -40,6 +40,27 @@ def _mlp_options(f):
     return f
 
 
+KIND_HELP = ("Model: mlp = the paper's MLP (the --hidden/--epochs/--lr/--batch-size options apply to it only); "
+             "svc = polar features (log |d|, direction per whisker and record) + RBF SVM, the best held-out "
+             "accuracy on the authors' data; trees = polar features + extra trees; hgb = polar features + "
+             "gradient boosting; dft-svc = cyclic-shift-invariant DFT features + RBF SVM "
+             "(docs/classification.md).")
+
+
+def _kind_option(f):
+    from whisker.data.models import KINDS
+
+    return click.option("--kind", type=click.Choice(KINDS), default="mlp", show_default=True, help=KIND_HELP)(f)
+
+
+def _params(kind, ds, hidden, epochs, lr, batch_size):
+    from whisker.data import classify as C
+
+    if kind != "mlp":
+        return {}
+    return dict(hidden=hidden, epochs=epochs, lr=lr, batch_size=batch_size, scale=ds.meta.get("scale") or C.PEER_SCALE)
+
+
 def _load(data, objects, design):
     from whisker.data.dataset import PAPER_OBJECTS, DatasetError, check_design, check_plausible, feature_limit_px, load
 
@@ -61,7 +82,7 @@ def _load(data, objects, design):
 @click.group()
 def cli():
     """Object classification from whisker contacts (the paper's MLP: 32 ReLU units, Adam lr 0.01,
-    10 epochs, 7:3 split) with honest, leak-free evaluation protocols."""
+    10 epochs, 7:3 split, or --kind svc/trees/hgb/dft-svc) with honest, leak-free evaluation protocols."""
 
 
 @cli.command()
@@ -69,6 +90,7 @@ def cli():
 @_data_option
 @_objects_option
 @_mlp_options
+@_kind_option
 @click.option("--protocol", default="trial", show_default=True, help=PROTOCOL_HELP)
 @click.option("--seed", default=0, show_default=True, type=int, help="Split and initialisation seed.")
 @click.option("--all-data", is_flag=True, help="Train on every sample with no test split (plus the rotated "
@@ -76,7 +98,7 @@ def cli():
 @click.option("--out", "out", type=click.Path(dir_okay=False), required=True, help="Model file to write (.joblib).")
 @click.option("--report", type=click.Path(file_okay=False), default=None,
               help="Folder for the per-class report (report.txt, metrics.json) and confusion.png.")
-def train(design, data, objects, hidden, epochs, lr, batch_size, protocol, seed, all_data, out, report):
+def train(design, data, objects, hidden, epochs, lr, batch_size, kind, protocol, seed, all_data, out, report):
     """Train the classifier and save it with the library versions it was trained with."""
     import numpy as np
 
@@ -84,8 +106,10 @@ def train(design, data, objects, hidden, epochs, lr, batch_size, protocol, seed,
     from whisker.data.dataset import DatasetError, augment_rotations
     from whisker.files import atomic_write_json, atomic_write_text
 
+    from whisker.data.models import make_model
+
     ds = _load(data, objects, design)
-    params = dict(hidden=hidden, epochs=epochs, lr=lr, batch_size=batch_size, scale=ds.meta.get("scale") or C.PEER_SCALE)
+    params = _params(kind, ds, hidden, epochs, lr, batch_size)
     try:
         C.check_classes(ds)
         if all_data:
@@ -95,12 +119,13 @@ def train(design, data, objects, hidden, epochs, lr, batch_size, protocol, seed,
             train_ds, test_ds = (augment_rotations(ds) if rotated else ds), None
         else:
             train_ds, test_ds = C.split(ds, protocol, seed)
-        model = C.fit_quiet(C.make_classifier(seed=seed, **params), train_ds.features(), train_ds.y)
+        model = C.fit_quiet(make_model(kind, seed=seed, n_records=ds.n_records, n_whiskers=ds.n_whiskers, **params),
+                            train_ds.features(), train_ds.y)
     except (DatasetError, ValueError) as err:
         fail(f"training refused: {err}")
     from whisker.data.dataset import feature_limit_px
 
-    info = {"params": params, "protocol": None if all_data else protocol, "seed": seed,
+    info = {"kind": kind, "params": params, "protocol": None if all_data else protocol, "seed": seed,
             "trained_on": ds.summary(), "design_whiskers": design.whiskers.count,
             "feature_limit_px": feature_limit_px(design)}
     if test_ds is not None:
@@ -132,9 +157,12 @@ def train(design, data, objects, hidden, epochs, lr, batch_size, protocol, seed,
               help="Evaluate this saved model on the whole dataset instead of running the protocol study.")
 @click.option("--protocol", "protocols", multiple=True, help=PROTOCOL_HELP + " Repeatable; default: all.")
 @click.option("--seeds", default=10, show_default=True, type=click.IntRange(1), help="Seeds per protocol.")
+@_kind_option
+@click.option("--jobs", default=1, show_default=True, type=click.IntRange(1),
+              help="Parallel fits (joblib workers, one per seed and protocol).")
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Folder for results.json, results.md and confusion_<protocol>.png.")
-def evaluate(design, data, objects, hidden, epochs, lr, batch_size, model_file, protocols, seeds, out):
+def evaluate(design, data, objects, hidden, epochs, lr, batch_size, model_file, protocols, seeds, kind, jobs, out):
     """Accuracy (mean +- std over seeds) under each protocol, or of a saved model on a dataset."""
     import numpy as np
 
@@ -165,9 +193,9 @@ def evaluate(design, data, objects, hidden, epochs, lr, batch_size, model_file, 
     bad = [p for p in protocols if p not in C.PROTOCOLS]
     if bad:
         fail(f"unknown protocol(s) {bad}; choose from {', '.join(C.PROTOCOLS)}")
-    params = dict(hidden=hidden, epochs=epochs, lr=lr, batch_size=batch_size, scale=ds.meta.get("scale") or C.PEER_SCALE)
+    params = _params(kind, ds, hidden, epochs, lr, batch_size)
     try:
-        summary = C.summarize(C.study(ds, protocols, range(seeds), progress=True, **params))
+        summary = C.summarize(C.study(ds, protocols, range(seeds), progress=True, n_jobs=jobs, kind=kind, **params))
     except (DatasetError, ValueError) as err:
         fail(f"evaluation refused: {err}")
     lines = [f"| protocol | accuracy mean +- std ({seeds} seeds) | min | train / test samples |", "|---|---|---|---|"]
@@ -177,7 +205,7 @@ def evaluate(design, data, objects, hidden, epochs, lr, batch_size, model_file, 
     lines.append(f"| the paper (5 objects) | {100 * C.PAPER_ACCURACY:.2f} % | | |")
     click.echo("\n".join(lines))
     if out:
-        atomic_write_json(Path(out) / "results.json", {"params": params, "objects": list(ds.classes), "protocols": summary})
+        atomic_write_json(Path(out) / "results.json", {"kind": kind, "params": params, "objects": list(ds.classes), "protocols": summary})
         atomic_write_text(Path(out) / "results.md", "\n".join(lines) + "\n")
         for p, v in summary.items():
             C.plot_confusion(v["confusion"], v["classes"], Path(out) / f"confusion_{p.replace('+', '_')}.png",

@@ -26,6 +26,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from whisker.sim.graph import Effect
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
 
 
 class AirflowSpec(BaseModel):
@@ -69,7 +70,7 @@ def effect(spec: AirflowSpec | None, design, stiffness_Nm_rad: float | None = No
     if spec is None or not spec.on:
         return Effect("airflow", False, "no airflow in the scene")
     tau = mean_torque_Nm(design, spec)
-    k = stiffness_Nm_rad if stiffness_Nm_rad else design.mechanics.rotational_stiffness * 1e-3
+    k = stiffness_Nm_rad if stiffness_Nm_rad else design_stiffness_Nmm_per_rad(design) * 1e-3
     when = "" if spec.start_s == 0 and spec.stop_s is None else \
         f" from {spec.start_s:g} s" + ("" if spec.stop_s is None else f" to {spec.stop_s:g} s")
     return Effect("airflow", True,

@@ -31,6 +31,7 @@ from whisker.sim.scene import Scene, SceneError
 from whisker.sim.drive import levels_at, path_samples
 
 from whisker.sim.effects import compliant
+from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
 
 ORDER = ("kinematics", "gravity", "motion", "magnetics", "heating", "contact", "compliance", "airflow", "camera",
          "tracking", "solver")
@@ -121,7 +122,7 @@ def plan(scene: Scene, design) -> Plan:
         body, missing = None, str(err)
     if body is not None:
         effects.append(Effect("kinematics", True,
-                              f"{n} rigid rods about the pivot: k = {mech.rotational_stiffness:g} N*mm/rad, "
+                              f"{n} rigid rods about the pivot: k = {design_stiffness_Nmm_per_rad(design):.4g} N*mm/rad, "
                               f"zeta = {mech.damping_ratio:g}, J = {body.inertia_kgm2 * 1e9:.3g} g*mm^2, "
                               f"f_n = {body.omega_n / (2 * math.pi):.3g} Hz"))
         kg = abs(float(gravity_torque(body, 1.0, scene.sensor.facing))) / math.sin(1.0)

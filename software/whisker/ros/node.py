@@ -1,0 +1,563 @@
+"""The ROS 2 node: camera -> tracker -> states -> contact force on topics, the coils behind services.
+
+Topics (relative names, so a namespace or remapping applies; types and units in docs/ros2.md):
+
+- ``joint_states`` (sensor_msgs/JointState): joint ``whisker_<i>`` per whisker, position = radial tilt
+  of the whisker at its base, rad (+ = retraction, tip towards the centre: the URDF joint's sense),
+  effort = the moment of the estimated tip force about that joint's axis, N m (whisker.sensing.contact_force).
+- ``~/states`` (std_msgs/Int8MultiArray): per whisker 0 rest, 1 contact, 2 dynamic (whisker.sensing.states;
+  airflow and other motion show as dynamic).
+- ``~/whisker_<i>/wrench`` (geometry_msgs/WrenchStamped, frame ``whisker_<i>_base``: the pivot, x
+  radially out): the estimated horizontal tip force, N, and its moment about the pivot, N m.
+- ``~/whisker_<i>/contact`` (geometry_msgs/PointStamped, frame ``whisker_sensor``): the estimated
+  contact point (the tip: contact_force assumes a tip contact), m; only while the whisker's state is contact.
+- ``~/grasp_phase`` (std_msgs/String): the closed-loop grasp's phase and reason on every change.
+- ``~/arm_velocity`` (geometry_msgs/TwistStamped, frame ``whisker_flange``): the grasp controller's
+  vertical tool velocity, m/s (descend, lift), for a robot that lets the sensor lead.
+- ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, 1 Hz): frame rate, processing time, markers
+  tracked; each coil's level and estimated temperature from the thermal guard.
+- ``robot_description`` (std_msgs/String, transient local): the URDF (whisker.ros.urdf);
+  ``/tf_static`` too when tf2_msgs is importable (a ROS 2 installation; the wheels have no tf2_msgs).
+
+Coil commands, every one through the same whisker.drive.actuation.Actuator (ratings, thermal guard,
+watchdog, off on exit) as `whisker actuate`; a refusal answers with the same one-line reason:
+
+- parameter ``levels`` (double array, one signed PWM duty per whisker; set with the standard
+  ``~/set_parameters`` service, e.g. ``ros2 param set /whisker levels "[0.5, 0, ...]"``);
+- ``~/run_sequence`` (std_srvs/Trigger): the sequence named by parameter ``sequence``;
+- ``~/grasp`` / ``~/release`` (std_srvs/Trigger): the closed-loop grasp (whisker.sensing.grasp_control) /
+  coils off and any grasp or sequence ended;
+- ``~/sim_contact`` (std_srvs/SetBool, simulator only): an object pushes whiskers
+  ``sim_contact.whiskers`` by ``sim_contact.reach_deg`` (true) or leaves (false).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PointStamped, TwistStamped, WrenchStamped
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Int8MultiArray, MultiArrayDimension, String
+from std_srvs.srv import SetBool, Trigger
+
+#: node parameters: name -> (default, description with units)
+PARAMETERS = {
+    "design_file": ("", "design TOML file ('' = the default design, hw/sensor.toml)"),
+    "design_set": ([""], "design overrides SECTION.KEY=VALUE (as --set)"),
+    "source": ("auto", "camera: auto (picamera on a Raspberry Pi, else sim), sim, picamera, a camera index, "
+                       "a video file or an image folder"),
+    "backend": ("auto", "coils: auto (gpio on a Raspberry Pi, else sim), sim, mock, gpio"),
+    "tracker": ("roi", "marker tracking method: paper, contour, blob, roi, fit (docs/tracking.md)"),
+    "method": ("adaptive", "state estimator: adaptive or authors (docs/states.md)"),
+    "fps": (15.0, "frame rate of the sim camera, frames/s"),
+    "rest_frames": (5, "first frames (whiskers untouched) that set the tracker's rest baseline"),
+    "policy": ("derate", "thermal guard policy: derate or cut"),
+    "prefix": ("whisker_", "prefix of the joint and frame names"),
+    "levels": ([0.0], "coil levels, signed PWM duty per whisker, + = retract; setting it drives the coils"),
+    "sequence": ("voltage_sweep", "coil sequence for ~/run_sequence: a TOML file or a shipped example name"),
+    "grasp.config": ("all", "whiskers of the grasp: all, every-second, opposite or K"),
+    "grasp.descend_mm": (5.0, "grasp: descent to the grasp height, mm (the rest is learned meanwhile)"),
+    "grasp.descend_s": (0.5, "grasp: seconds of the descent"),
+    "grasp.lift_mm": (0.0, "grasp: lift after the grip, mm (0: the robot lifts)"),
+    "grasp.lift_s": (0.5, "grasp: seconds of the lift"),
+    "grasp.hold_s": (0.0, "grasp: seconds of the hold, then release (0: hold until ~/release)"),
+    "grasp.max_gap_frames": (2.5, "grasp: abort (coils off) when frames are further apart than this many periods"),
+    "sim_contact.whiskers": ([0], "~/sim_contact: whiskers the simulated object touches"),
+    "sim_contact.reach_deg": (6.0, "~/sim_contact: tilt the object pushes them to, deg (radially in)"),
+    "sim_dt": (0.002, "backend sim: integration step, s (omega_n dt = 0.17 for the default design with the implicit "
+                      "integrator; 0.0005, SimBackend's default, costs more than real time with the coils on)"),
+    "save_frames": ("", "folder: write every camera frame (PNG) and times.csv (file, time_s: camera time s, "
+                        "stamp_ns: the stamp of the frame's messages, ns)"),
+    "diagnostics_period": (1.0, "seconds between /diagnostics messages"),
+}
+
+
+def _on_pi() -> bool:
+    try:
+        return "raspberry pi" in Path("/proc/device-tree/model").read_text(errors="ignore").lower()
+    except OSError:
+        return False
+
+
+class SensorNode(Node):
+    """See the module docstring. `design`: a whisker Design (None: from the design_file/design_set
+    parameters). `overrides`: {parameter: value} (the `whisker ros` options)."""
+
+    def __init__(self, design=None, overrides: dict | None = None, name: str = "whisker", **kw):
+        ov = [Parameter(k, value=v) for k, v in (overrides or {}).items()]
+        super().__init__(name, parameter_overrides=ov, **kw)
+        for key, (default, text) in PARAMETERS.items():
+            self.declare_parameter(key, default, ParameterDescriptor(description=text))
+        self.design = design if design is not None else self._load_design()
+        d, n = self.design, self.design.whiskers.count
+        self.n = n
+        self.prefix = self.p("prefix")
+        self._lock = threading.RLock()
+        self._stop = threading.Event()
+        self.frames = 0
+        self.tracked = 0
+        self.latency_s: list[float] = []
+        self.last_error: str | None = None
+        self._build_pipeline()
+        self._build_io()
+        self.add_on_set_parameters_callback(self._on_set)
+        self._thread = threading.Thread(target=self._run, name="whisker-frames", daemon=True)
+        self._thread.start()
+
+    # -- set-up ---------------------------------------------------------------------------------
+    def p(self, key):
+        return self.get_parameter(key).value
+
+    def _load_design(self):
+        from whisker.design import load_design
+
+        sets = [s for s in self.p("design_set") if s]
+        return load_design(self.p("design_file") or None, sets)
+
+    def _build_pipeline(self) -> None:
+        from whisker.drive.actuation import open_actuator
+        from whisker.sensing.contact_force import ForceModel
+        from whisker.vision.tracking import Tracker
+
+        d = self.design
+        source, backend = self.p("source"), self.p("backend")
+        if backend == "auto":
+            backend = "gpio" if _on_pi() else "sim"
+        if source == "auto":
+            source = "picamera" if _on_pi() else "sim"
+        if source == "sim" and backend != "sim":
+            raise ValueError("source sim needs backend sim (the simulated camera films the simulated whiskers)")
+        self.source_name, self.backend_name = source, backend
+        self.sim = None
+        if backend == "sim":
+            from whisker.ros.sim_contact import ContactBackend
+
+            self.sim = ContactBackend(d, dt=float(self.p("sim_dt")))
+        self.tracker = Tracker(d, self.p("tracker"))
+        fps = float(self.p("fps"))
+        if source == "sim":
+            from whisker.data.recording import SimCamera
+
+            self.src = SimCamera(d, self.sim, fps=fps)
+        else:
+            from whisker.vision.camera import open_source
+
+            self.src = open_source(source, d)
+        self.act = open_actuator(d, backend, policy=self.p("policy"), backend_object=self.sim)
+        self.force_model = ForceModel.from_design(d)
+        self.expected_px = None
+        try:
+            from whisker.sim.experiments.closed_loop import free_closing_px
+
+            self.expected_px = free_closing_px(d)     # own-actuation displacement for the estimator
+        except ImportError:
+            pass
+        self.grasp = None
+        self.grasp_phase = ""
+        self.sequence = None
+        ang = np.radians(np.asarray(d.whisker_angles_deg, dtype=float))
+        self.radial = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        self.base_xyz_mm = np.stack([d.whiskers.ring_radius * self.radial[:, 0],
+                                     d.whiskers.ring_radius * self.radial[:, 1], np.full(self.n, d.pivot_z)], 1)
+        self.save_dir = Path(self.p("save_frames")) if self.p("save_frames") else None
+        if self.save_dir is not None:
+            self.save_dir.mkdir(parents=True, exist_ok=True)
+            (self.save_dir / "times.csv").write_text("file,time_s,stamp_ns\n")
+
+    def _build_io(self) -> None:
+        from whisker.ros.urdf import joint_names, urdf
+
+        pre, n = self.prefix, self.n
+        self.joint_names = joint_names(self.design, pre)
+        self.pub_joints = self.create_publisher(JointState, "joint_states", 10)
+        self.pub_states = self.create_publisher(Int8MultiArray, "~/states", 10)
+        self.pub_wrench = [self.create_publisher(WrenchStamped, f"~/whisker_{i}/wrench", 10) for i in range(n)]
+        self.pub_contact = [self.create_publisher(PointStamped, f"~/whisker_{i}/contact", 10) for i in range(n)]
+        self.pub_phase = self.create_publisher(String, "~/grasp_phase", 10)
+        self.pub_arm = self.create_publisher(TwistStamped, "~/arm_velocity", 10)
+        self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.urdf_text = urdf(self.design, prefix=pre)
+        self.pub_description = self.create_publisher(String, "robot_description", latched)
+        self.pub_description.publish(String(data=self.urdf_text))
+        self.static_tf = self._publish_static_tf(latched)
+        self.create_service(Trigger, "~/grasp", self._srv_grasp)
+        self.create_service(Trigger, "~/release", self._srv_release)
+        self.create_service(Trigger, "~/run_sequence", self._srv_sequence)
+        self.create_service(SetBool, "~/sim_contact", self._srv_sim_contact)
+        self.create_timer(0.02, self._tick_sequence)
+        self.create_timer(float(self.p("diagnostics_period")), self._publish_diagnostics)
+        self._diag_t, self._diag_frames = time.monotonic(), 0
+
+    def _publish_static_tf(self, qos) -> bool:
+        """The URDF's fixed frames on /tf_static, when tf2_msgs is there (a ROS 2 installation)."""
+        try:
+            from geometry_msgs.msg import TransformStamped
+            from tf2_msgs.msg import TFMessage
+        except ImportError:
+            return False
+        from urdf_parser_py.urdf import URDF      # ships with ROS 2 (urdfdom_py)
+
+        robot = URDF.from_xml_string(self.urdf_text)
+        out = TFMessage()
+        now = self.get_clock().now().to_msg()
+        for j in robot.joints:
+            if j.type != "fixed":
+                continue
+            t = TransformStamped()
+            t.header.stamp, t.header.frame_id, t.child_frame_id = now, j.parent, j.child
+            t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = j.origin.xyz
+            q = _quaternion(*j.origin.rpy)
+            t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z, t.transform.rotation.w = q
+            out.transforms.append(t)
+        self.create_publisher(TFMessage, "/tf_static", qos).publish(out)
+        return True
+
+    # -- coil commands --------------------------------------------------------------------------
+    def _refusal(self, err: Exception) -> str:
+        return str(err).splitlines()[0] if str(err) else type(err).__name__
+
+    def _on_set(self, params) -> SetParametersResult:
+        from whisker.drive.guard import RatingError
+
+        for prm in params:
+            if prm.name == "levels":
+                try:
+                    lv = np.asarray(prm.value, dtype=float)
+                    with self._lock:
+                        self._end_activity("levels set")
+                        self.act.apply(lv, "levels")
+                except (RatingError, ValueError, RuntimeError, TypeError) as err:
+                    return SetParametersResult(successful=False, reason=self._refusal(err))
+            elif prm.name in ("source", "backend", "tracker", "method", "fps", "rest_frames", "policy", "prefix",
+                              "design_file", "design_set", "save_frames", "diagnostics_period", "sim_dt"):
+                return SetParametersResult(successful=False, reason=f"{prm.name} is read at start only: restart the node")
+        return SetParametersResult(successful=True)
+
+    def _end_activity(self, why: str) -> None:
+        """End a running grasp or sequence (caller holds the lock)."""
+        if self.grasp is not None:
+            self._set_phase("done", why)
+            self.grasp = None
+        self.sequence = None
+
+    def _set_phase(self, phase: str, reason: str) -> None:
+        text = f"{phase}: {reason}" if reason else phase
+        if text != self.grasp_phase:
+            self.grasp_phase = text
+            self.pub_phase.publish(String(data=text))
+
+    def _srv_release(self, request, response):
+        with self._lock:
+            self._end_activity("released by ~/release")
+            self.act.neutral()
+        response.success, response.message = True, "coils off"
+        return response
+
+    def _srv_sequence(self, request, response):
+        from whisker.drive.sequences import SequenceRunner, load_sequence
+
+        try:
+            steps = load_sequence(self.design, self.p("sequence"))
+            with self._lock:
+                self._end_activity("a sequence started")
+                runner = SequenceRunner(self.act, steps)
+                runner.start(time.monotonic())
+                self.sequence = runner
+        except (ValueError, OSError, RuntimeError) as err:
+            response.success, response.message = False, self._refusal(err)
+            return response
+        response.success = True
+        response.message = f"sequence {self.p('sequence')}: {len(steps)} steps, {runner.total_s:.2f} s"
+        return response
+
+    def _tick_sequence(self) -> None:
+        with self._lock:
+            if self.sequence is None:
+                return
+            try:
+                self.sequence.tick(time.monotonic())
+                done = self.sequence.done
+            except Exception as err:  # noqa: BLE001 - a refused step or a guard failure: off, say why
+                self.get_logger().error(f"sequence stopped: {self._refusal(err)}")
+                done = True
+            if done:
+                self.sequence = None
+                self.act.neutral()
+
+    def _srv_grasp(self, request, response):
+        from whisker.drive.actuation import configuration
+        from whisker.sensing.grasp_control import GraspController
+        from whisker.drive.guard import RatingError, ThermalGuard
+        from whisker.sensing.rig import handheld_params
+
+        try:
+            if self.expected_px is None:
+                raise RuntimeError("the grasp needs the free-closing model (whisker.sim.experiments.closed_loop)")
+            active = list(map(int, np.flatnonzero(configuration(self.n, self.p("grasp.config")))))
+            hold = float(self.p("grasp.hold_s"))
+            params = handheld_params(self.design, fps=float(self.p("fps")), descend_mm=float(self.p("grasp.descend_mm")),
+                                     descend_s=float(self.p("grasp.descend_s")), lift_mm=float(self.p("grasp.lift_mm")),
+                                     lift_s=float(self.p("grasp.lift_s")), hold_s=hold if hold > 0 else math.inf,
+                                     max_gap_frames=float(self.p("grasp.max_gap_frames")))
+            from whisker.drive.guard import check_levels
+
+            check_levels(self.design, np.where(np.isin(np.arange(self.n), active), params.full_level, 0.0))
+            ctl = GraspController(self.n, active, params, self.expected_px, guard=ThermalGuard(self.design, clock=lambda: 0.0))
+        except (RatingError, ValueError, RuntimeError) as err:
+            response.success, response.message = False, self._refusal(err)
+            return response
+        with self._lock:
+            self._end_activity("a new grasp started")
+            self.grasp = ctl
+            self.grasp_t0 = None
+        response.success = True
+        response.message = (f"grasp started on whiskers {active} at level {params.full_level:.3f}: "
+                            f"descend {params.descend_s:g} s, then close")
+        return response
+
+    def _srv_sim_contact(self, request, response):
+        if self.sim is None:
+            response.success, response.message = False, "sim_contact needs backend sim"
+            return response
+        try:
+            who = [int(i) for i in self.p("sim_contact.whiskers")] if request.data else []
+            bad = [i for i in who if not 0 <= i < self.n]
+            if bad:
+                raise ValueError(f"sim_contact.whiskers: whisker {bad[0]} is not in 0..{self.n - 1}")
+            self.sim.set_contact(who, float(self.p("sim_contact.reach_deg")))
+        except ValueError as err:
+            response.success, response.message = False, self._refusal(err)
+            return response
+        response.success = True
+        response.message = f"object on whiskers {who}" if who else "object removed"
+        return response
+
+    # -- the frame loop -------------------------------------------------------------------------
+    def _run(self) -> None:
+        from whisker.sensing.contact_force import tip_force
+        from whisker.sensing.live import LivePipeline
+        from whisker.sensing.states import make_estimator
+
+        try:
+            frames = iter(self.src)
+            rest = list(itertools.islice(frames, int(self.p("rest_frames"))))
+            if not rest:
+                raise RuntimeError("no frames from the source for the rest baseline")
+            stamps = [self.get_clock().now() for _ in rest]
+            for f, s in zip(rest, stamps):
+                self._save(f, s)
+            self.tracker.calibrate(rest)
+            pipe = LivePipeline(self.tracker, make_estimator(self.p("method"), self.n), force_model=None)
+            for frame in frames:
+                if self._stop.is_set():
+                    break
+                t0 = time.perf_counter()
+                stamp = self.get_clock().now()
+                with self._lock:
+                    applied = np.asarray(self.act.applied, dtype=float).copy()
+                live = pipe.step(frame, expected=self._expected(applied))
+                temps = self.act.guard.temperatures if self.act.guard is not None else 20.0
+                force = tip_force(self.force_model, live.dx_px, live.dy_px, levels=applied, temperature_C=temps)
+                geo = self.tracker.deflection(live.result)
+                self._grasp_step(frame, live)
+                self._publish(stamp, live, force, geo)
+                self.latency_s.append(time.perf_counter() - t0)
+                self.frames += 1
+                self._save(frame, stamp)
+        except Exception as err:  # noqa: BLE001 - the node reports and keeps its services (coils off)
+            if self._stop.is_set() or not self.context.ok():     # Ctrl-C / shutdown: not a fault
+                self.act.off()
+                return
+            self.last_error = self._refusal(err)
+            self.get_logger().error(f"frame loop stopped: {self.last_error}")
+            self.act.off()
+
+    def _save(self, frame, stamp) -> None:
+        if self.save_dir is None:
+            return
+        import cv2
+
+        name = f"frame_{frame.index:06d}.png"
+        cv2.imwrite(str(self.save_dir / name), frame.image)
+        with open(self.save_dir / "times.csv", "a") as fh:
+            fh.write(f"{name},{frame.time_s:.6f},{stamp.nanoseconds}\n")
+
+    def _expected(self, applied):
+        """(n, 2) px each whisker's own coil moves it (free closing at its level), or None."""
+        if self.expected_px is None or not np.any(applied):
+            return None
+        out = np.zeros((self.n, 2))
+        for i, lv in enumerate(applied):
+            if lv:
+                out[i] = np.sign(lv) * np.asarray(self.expected_px(abs(lv)), dtype=float)[i]
+        return out
+
+    def _grasp_step(self, frame, live) -> None:
+        from whisker.drive.guard import RatingError
+
+        with self._lock:
+            ctl = self.grasp
+            if ctl is None:
+                return
+            if self.grasp_t0 is None:
+                self.grasp_t0 = frame.time_s
+            cmd = ctl.step(frame.time_s - self.grasp_t0, live.dx_px, live.dy_px, live.valid)
+            reason = ctl.log.events[-1][2] if ctl.log.events else cmd.reason
+            try:
+                self.act.apply(cmd.levels, cmd.phase)
+            except (RatingError, ValueError, RuntimeError) as err:
+                self.grasp = None
+                self.act.off()
+                self._set_phase("abort", self._refusal(err))
+                return
+            self._set_phase(cmd.phase, reason)
+            arm = TwistStamped()
+            arm.header.frame_id = f"{self.prefix}flange"
+            arm.header.stamp = self.get_clock().now().to_msg()
+            arm.twist.linear.z = float(cmd.arm_mm_s) * 1e-3
+            self.pub_arm.publish(arm)
+            if cmd.phase in ("done", "abort"):
+                self.grasp = None
+                self.act.neutral()
+
+    def _publish(self, stamp, live, force, geo) -> None:
+        """One frame's messages (see the module docstring for the conventions)."""
+        n, pre = self.n, self.prefix
+        hdr_stamp = stamp.to_msg()
+        theta = np.radians(np.asarray(geo.theta_deg, dtype=float))
+        tip = np.stack([geo.tip_x_mm, geo.tip_y_mm], axis=1)                     # tip moved, sensor xy, mm
+        r_tip = np.hypot(tip[:, 0], tip[:, 1])
+        inward = -np.sum(tip * self.radial, axis=1)                             # tip's move towards the centre
+        with np.errstate(invalid="ignore", divide="ignore"):
+            radial_tilt = np.where(r_tip > 1e-12, theta * inward / np.where(r_tip > 1e-12, r_tip, 1.0), 0.0)
+        f = np.stack([force.fx_mN, force.fy_mN, np.zeros(n)], axis=1) * 1e-3    # N, sensor axes
+        lever = np.stack([tip[:, 0], tip[:, 1], np.asarray(geo.tip_z_mm, float)], axis=1) * 1e-3   # pivot->tip, m
+        moment = np.cross(lever, f)                                              # N m about the pivot
+        axis = np.stack([self.radial[:, 1], -self.radial[:, 0], np.zeros(n)], axis=1)   # joint axis r x z
+        effort = np.sum(moment * axis, axis=1)
+        ok = np.asarray(live.valid, bool) & np.isfinite(radial_tilt)
+        self.tracked = int(ok.sum())
+        js = JointState()
+        js.header.stamp = hdr_stamp
+        js.name = list(self.joint_names)
+        js.position = [float(v) if ok[i] else math.nan for i, v in enumerate(radial_tilt)]
+        js.effort = [float(v) if ok[i] and math.isfinite(v) else math.nan for i, v in enumerate(effort)]
+        self.pub_joints.publish(js)
+        st = Int8MultiArray()
+        st.layout.dim = [MultiArrayDimension(label="whisker: 0 rest, 1 contact, 2 dynamic", size=n, stride=n)]
+        st.data = [int(s) for s in live.labels]
+        self.pub_states.publish(st)
+        for i in range(n):
+            if not ok[i] or not np.all(np.isfinite(f[i])):
+                continue
+            c, s = self.radial[i]
+            rot = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])         # sensor axes -> base axes
+            fb, mb = rot @ f[i], rot @ moment[i]
+            w = WrenchStamped()
+            w.header.stamp, w.header.frame_id = hdr_stamp, f"{pre}{i}_base"
+            w.wrench.force.x, w.wrench.force.y, w.wrench.force.z = map(float, fb)
+            w.wrench.torque.x, w.wrench.torque.y, w.wrench.torque.z = map(float, mb)
+            self.pub_wrench[i].publish(w)
+            if int(live.labels[i]) == 1:
+                pt = PointStamped()
+                pt.header.stamp, pt.header.frame_id = hdr_stamp, f"{pre}sensor"
+                pos = self.base_xyz_mm[i] * 1e-3 + lever[i]
+                pt.point.x, pt.point.y, pt.point.z = map(float, pos)
+                self.pub_contact[i].publish(pt)
+
+    def _publish_diagnostics(self) -> None:
+        now = time.monotonic()
+        dt, df = now - self._diag_t, self.frames - self._diag_frames
+        self._diag_t, self._diag_frames = now, self.frames
+        arr = DiagnosticArray()
+        arr.header.stamp = self.get_clock().now().to_msg()
+        cam = DiagnosticStatus(name=f"{self.get_name()}: camera and tracking", hardware_id=self.source_name)
+        lat = self.latency_s[-50:]
+        cam.values = [KeyValue(key="frame rate (frames/s)", value=f"{df / dt:.2f}" if dt > 0 else "0"),
+                      KeyValue(key="frames", value=str(self.frames)),
+                      KeyValue(key="processing (ms/frame)", value=f"{1e3 * np.mean(lat):.2f}" if lat else "n/a"),
+                      KeyValue(key="markers tracked", value=f"{self.tracked} of {self.n}")]
+        if self.last_error:
+            cam.level, cam.message = DiagnosticStatus.ERROR, self.last_error
+        elif self.tracked < self.n:
+            cam.level, cam.message = DiagnosticStatus.WARN, f"{self.n - self.tracked} markers lost"
+        elif df == 0:
+            cam.level, cam.message = DiagnosticStatus.WARN, "no frames"
+        else:
+            cam.level, cam.message = DiagnosticStatus.OK, "tracking"
+        coils = DiagnosticStatus(name=f"{self.get_name()}: coils", hardware_id=self.backend_name)
+        g = self.act.guard
+        vals = [KeyValue(key="phase", value=str(self.act.phase))]
+        for i in range(self.n):
+            vals.append(KeyValue(key=f"coil {i} level", value=f"{float(self.act.applied[i]):.3f}"))
+            if g is not None:
+                vals.append(KeyValue(key=f"coil {i} temperature (C)", value=f"{float(g.temperatures[i]):.1f}"))
+        if g is not None:
+            vals.append(KeyValue(key="cut-off (C)", value=f"{g.cut_C:.1f}"))
+            vals.append(KeyValue(key="guard trips", value=str([int(x) for x in g.trips])))
+        coils.values = vals
+        tripped = g is not None and bool(np.any(g.tripped))
+        coils.level = DiagnosticStatus.ERROR if tripped else DiagnosticStatus.OK
+        coils.message = "thermal guard cut a coil" if tripped else (self.grasp_phase or "ready")
+        arr.status = [cam, coils]
+        self.pub_diag.publish(arr)
+
+    # -- shutdown -------------------------------------------------------------------------------
+    def close(self) -> None:
+        """Stop the frame loop and switch every coil off (also on Ctrl-C / SIGTERM through main)."""
+        self._stop.set()
+        try:
+            self.src.close()
+        finally:
+            self._thread.join(timeout=2.0)
+            self.act.close()
+
+
+def _quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of the URDF rotation Rz(yaw) Ry(pitch) Rx(roll)."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
+            cr * cp * cy + sr * sp * sy)
+
+
+def spin(design=None, overrides: dict | None = None, args=None, duration_s: float | None = None,
+         on_ready=None) -> int:
+    """Init ROS, run the node until Ctrl-C / SIGTERM (or `duration_s`), coils off at the end."""
+    from whisker.drive.actuation import deenergise_on_signals
+
+    rclpy.init(args=args)
+    node = None
+    try:
+        with deenergise_on_signals():
+            node = SensorNode(design, overrides)
+            node.get_logger().info(f"whisker: source {node.source_name}, backend {node.backend_name}, "
+                                   f"{node.n} whiskers; joint_states, ~/states, services ~/grasp ~/release "
+                                   f"~/run_sequence, parameter levels")
+            if on_ready is not None:
+                on_ready(node)
+            end = math.inf if duration_s is None else time.monotonic() + duration_s
+            while rclpy.ok() and time.monotonic() < end:
+                rclpy.spin_once(node, timeout_sec=0.05)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if node is not None:
+            node.close()
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+    return 0

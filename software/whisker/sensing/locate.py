@@ -1,0 +1,304 @@
+"""Where along a whisker the object touches it: contact distance by active whisking (issue 31).
+
+Method (Kaneko's active antenna: Kaneko, Kanayama & Tsuji, IEEE Trans. Robot. Autom. 14(2), 1998,
+"Active antenna for contact sensing"; the same beam relation underlies Solomon & Hartmann, Nature 443,
+2006, "Robotic whiskers used to sense features"). While the whisker touches an object at distance r
+from its pivot, the coil drives it through a small, known square-wave sweep of torque into the
+contact. The object holds the contact point, so the base can turn only as far as the rod bends
+between the pivot and the contact; the rod is an Euler-Bernoulli beam loaded by a moment at the pivot
+and held at r, whose end rotation is M r / (3 EI). With the membrane (rotational stiffness k) in
+parallel, the base's stiffness against the commanded torque is
+
+    K = d tau / d theta = k + 3 EI / r          ->          r = 3 EI / (K - k)
+
+K is the least-squares slope of the commanded torque (whisker.coil.kinematics.magnetic_torque at the
+tracked tilt) against the tracked radial tilt over the sweep's frames. The contact moment is what the
+membrane holds at rest, M = k theta_0 (theta_0: the tilt the object pushed the whisker to), and the
+contact force F = M / r. EI = E pi d^4 / 64 from ``mechanics.rod_modulus`` and ``whiskers.rod_diameter``;
+k from the membrane model (whisker.mechanics.membrane) when that module is installed, else
+``mechanics.rotational_stiffness``; either can be replaced by a per-whisker calibration (`calibrate_EI`:
+one press at a known distance).
+
+What the estimator handles, and what it does not:
+- rod bending: it is the measurement (linear beam, small angles);
+- membrane compliance: k in parallel (known or calibrated);
+- a compliant object: its contact compliance c = d(indentation)/dF adds c / r^2 to 1 / (K - k). If the
+  object's indentation law is given (`estimate(..., contact_indentation_mm=...)`), r is solved with
+  it; if not, a soft object reads farther out than it is (docs/locate.md gives the bias);
+- slip: a contact that slides along the object under the sweep moves the base across the sweep axis
+  (in stick that motion is zero) and makes the base far more compliant than the rod allows; both are
+  tested, and a slipping or too-soft contact gets no distance;
+- no contact / no information: a whisker that follows the sweep like a free one is "no contact"; a
+  sweep whose response is below the tracker's noise gets "not observable", never a number.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: defaults of the sweep, at the knee of benchmarks/results/locate.md (accuracy vs heat and time)
+DEFAULT_AMPLITUDE = 1.0          # level (signed PWM duty, whisker.drive.actuation)
+DEFAULT_DURATION_S = 2.0         # s
+DEFAULT_PERIOD_S = 0.2           # s, one on/off cycle of the square wave
+MIN_FRAMES = 8
+#: a distance whose 1-sigma uncertainty is above this fraction of the rod's protrusion is not reported
+NOT_OBSERVABLE_FRACTION = 0.25
+#: slip: across-axis response above this many standard errors (and above this fraction of the in-axis one)
+SLIP_SIGMAS, SLIP_FRACTION = 4.0, 0.2
+
+
+class LocateError(ValueError):
+    """Input the estimator refuses (one line naming what is wrong)."""
+
+
+def bending_stiffness_Nmm2(design) -> float:
+    """EI of the rod, N*mm^2: E (``mechanics.rod_modulus``, GPa -> N/mm^2) x pi d^4 / 64."""
+    d = design.whiskers.rod_diameter
+    return design.mechanics.rod_modulus * 1e3 * math.pi * d ** 4 / 64.0
+
+
+def membrane_stiffness_Nmm_per_rad(design) -> tuple[float, str]:
+    """(k, source): the membrane model's tilt stiffness when whisker.mechanics.membrane is installed,
+    else the design's ``mechanics.rotational_stiffness``."""
+    try:
+        from whisker.mechanics.membrane import rotational_stiffness_Nmm_per_rad
+    except ImportError:
+        return float(design.mechanics.rotational_stiffness), "mechanics.rotational_stiffness"
+    return float(rotational_stiffness_Nmm_per_rad(design)), "whisker.mechanics.membrane"
+
+
+def coil_torque_Nmm(design, levels, theta_r) -> np.ndarray:
+    """Commanded coil torque about the pivot, N*mm (+ retracts), at signed levels and radial tilts (rad):
+    the driver's current for level x full-scale voltage (cold coil) times the coil model's torque."""
+    from whisker.coil.kinematics import magnetic_torque, whisker_body
+    from whisker.drive.guard import coil_current_A, full_scale_voltage
+
+    levels = np.asarray(levels, dtype=float)
+    volts = np.abs(levels) * full_scale_voltage(design)
+    current = np.sign(levels) * coil_current_A(design, volts)
+    return 1e3 * magnetic_torque(design, whisker_body(design), theta_r, current)
+
+
+def sweep_levels(amplitude: float, duration_s: float, fps: float, period_s: float = DEFAULT_PERIOD_S
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """(t_s, level) per camera frame of the square-wave sweep: off for the first half period, then
+    ``amplitude`` (signed) for half a period, and so on; frames at 1/fps."""
+    if not (duration_s > 0 and fps > 0 and period_s > 0):
+        raise LocateError(f"sweep needs duration, fps and period > 0 (got {duration_s}, {fps}, {period_s})")
+    t = np.arange(int(math.floor(duration_s * fps + 1e-9))) / fps
+    on = np.floor(t / (period_s / 2.0)).astype(int) % 2 == 1
+    return t, np.where(on, float(amplitude), 0.0)
+
+
+def sweep_heat(design, amplitude: float, duration_s: float, start_C: float | None = None) -> dict:
+    """Heat the sweep costs in the coil (whisker.coil.thermal.CoilThermal, 50 % of the time on):
+    peak temperature (C), rise (K), electrical energy (J), and the limit (C): where the thermal guard
+    (whisker.drive.guard) starts derating, so the whole sweep runs at the commanded level."""
+    from whisker.coil.thermal import CoilThermal
+    from whisker.drive.guard import full_scale_voltage
+
+    th = CoilThermal(design)
+    T0 = th.ambient_C if start_C is None else float(start_C)
+    volts = abs(float(amplitude)) * full_scale_voltage(design)
+    T, steps = T0, max(10, int(duration_s / 0.01))
+    energy = 0.0
+    for _ in range(steps):
+        energy += 0.5 * volts ** 2 / float(th.resistance(T)) * duration_s / steps
+        T = th.step_voltage(T, volts, duration_s / steps, duty=0.5)
+    # the guard starts derating drive.guard_derate_band below its cut-off: past that the applied torque
+    # would no longer be the commanded one, so that is the sweep's limit
+    cut = th.limit_C - float(design.drive.guard_margin) - float(design.drive.guard_derate_band)
+    return {"start_C": T0, "peak_C": float(T), "rise_K": float(T - T0), "energy_J": float(energy), "cut_C": cut}
+
+
+def check_sweep(design, amplitude: float, duration_s: float, start_C: float | None = None) -> dict:
+    """`sweep_heat` if the sweep is allowed; LocateError if its level is beyond the drive's ratings or
+    it would heat the coil to where the thermal guard derates."""
+    from whisker.drive.guard import max_level
+
+    if not math.isfinite(amplitude) or abs(amplitude) > max_level(design) + 1e-12:
+        raise LocateError(f"sweep amplitude {amplitude:g} is beyond the drive's largest level "
+                          f"{max_level(design):.3g} (coil rating)")
+    heat = sweep_heat(design, amplitude, duration_s, start_C)
+    if heat["peak_C"] > heat["cut_C"]:
+        raise LocateError(f"sweep of level {amplitude:g} for {duration_s:g} s would heat the coil from "
+                          f"{heat['start_C']:.1f} C to {heat['peak_C']:.1f} C, past {heat['cut_C']:.1f} C where the thermal guard "
+                          "starts derating (the torque would no longer be the commanded one); "
+                          "shorten it or lower the amplitude")
+    return heat
+
+
+def tilt_from_tip_mm(design, whisker: int, tip_xy_mm) -> np.ndarray:
+    """(F, 2) [radial, tangential] tilt (rad) of one whisker from its tracked tip displacement (F, 2),
+    sensor x, y in mm, by the small-angle Jacobian of whisker.coil.kinematics.tip_positions_mm."""
+    from whisker.coil.kinematics import tip_positions_mm
+
+    n = design.whiskers.count
+    h = 1e-4
+    base = tip_positions_mm(design, np.zeros((n, 2)))[whisker, :2]
+    J = np.zeros((2, 2))
+    for j in range(2):
+        th = np.zeros((n, 2))
+        th[whisker, j] = h
+        J[:, j] = (tip_positions_mm(design, th)[whisker, :2] - base) / h
+    return np.linalg.solve(J, np.asarray(tip_xy_mm, dtype=float).T).T
+
+
+@dataclass
+class Sweep:
+    """One whisker's sweep: frame times (s), commanded level per frame, tracked [radial, tangential]
+    tilt (rad) per frame, and the tracker's valid flags."""
+
+    t_s: np.ndarray
+    level: np.ndarray
+    tilt_rad: np.ndarray
+    valid: np.ndarray | None = None
+
+
+@dataclass
+class LocateResult:
+    status: str                       # "ok", "no contact", "slip or soft contact", "not observable", "ambiguous"
+    message: str
+    distance_mm: float | None = None
+    distance_sigma_mm: float | None = None
+    force_mN: float | None = None
+    moment_Nmm: float | None = None
+    stiffness_Nmm_per_rad: float | None = None
+    frames: int = 0
+    details: dict = field(default_factory=dict)
+
+    def row(self) -> dict:
+        r = lambda v, n: None if v is None else round(float(v), n)  # noqa: E731
+        return {"status": self.status, "distance_mm": r(self.distance_mm, 2),
+                "distance_sigma_mm": r(self.distance_sigma_mm, 2), "force_mN": r(self.force_mN, 3),
+                "moment_Nmm": r(self.moment_Nmm, 4), "stiffness_Nmm_per_rad": r(self.stiffness_Nmm_per_rad, 2),
+                "frames": self.frames, "message": self.message}
+
+
+def calibrate_EI(design, sweep: Sweep, distance_mm: float, k: float | None = None) -> float:
+    """Per-whisker calibration: EI (N*mm^2) from a sweep against a rigid object at a known distance."""
+    K, _, _, _ = _slopes(design, sweep)[:4]
+    k = membrane_stiffness_Nmm_per_rad(design)[0] if k is None else k
+    if K <= k:
+        raise LocateError("calibration sweep shows no contact stiffness; press a rigid object against the rod")
+    return (K - k) * distance_mm / 3.0
+
+
+def _slopes(design, sweep: Sweep):
+    """(K, sigma_K, across-axis slope / in-axis slope, its standard error ratio, tau, tilt, residual rad)."""
+    t = np.asarray(sweep.t_s, dtype=float)
+    lev = np.asarray(sweep.level, dtype=float)
+    tilt = np.asarray(sweep.tilt_rad, dtype=float)
+    if tilt.ndim != 2 or tilt.shape[1] != 2 or len(lev) != len(tilt) or len(t) != len(tilt):
+        raise LocateError(f"sweep arrays disagree: {len(t)} times, {len(lev)} levels, tilt {tilt.shape} "
+                          "(need one [radial, tangential] tilt per frame)")
+    ok = np.isfinite(tilt).all(axis=1) & np.isfinite(lev)
+    if sweep.valid is not None:
+        ok &= np.asarray(sweep.valid, bool)
+    if ok.sum() < MIN_FRAMES:
+        raise LocateError(f"{int(ok.sum())} tracked frames in the sweep, need at least {MIN_FRAMES}")
+    lev, tilt = lev[ok], tilt[ok]
+    if np.ptp(lev) < 1e-3:
+        raise LocateError("recording without actuation: the coil level does not change during it; "
+                          "locate needs a sweep (a recording made with one, or whisker locate --simulate)")
+    tau = coil_torque_Nmm(design, lev, tilt[:, 0])
+    A = np.stack([np.ones_like(tau), tau], axis=1)
+    coef, *_ = np.linalg.lstsq(A, tilt, rcond=None)      # tilt = a + b tau, both axes
+    resid = tilt - A @ coef
+    dof = max(1, len(tau) - 2)
+    s = np.sqrt((resid ** 2).sum(axis=0) / dof)
+    se_b = s / math.sqrt(max(((tau - tau.mean()) ** 2).sum(), 1e-300))
+    b, b_t = coef[1]
+    return b, se_b[0], b_t, se_b[1], tau, tilt, lev, s
+
+
+def estimate(design, sweep: Sweep, *, k: float | None = None, EI: float | None = None,
+             contact_indentation_mm=None) -> LocateResult:
+    """Contact distance (mm), its 1-sigma, contact force (mN) and moment (N*mm) from one sweep.
+
+    ``k`` (N*mm/rad) and ``EI`` (N*mm^2) default to the design's (`membrane_stiffness_Nmm_per_rad`,
+    `bending_stiffness_Nmm2`) or come from a calibration. ``contact_indentation_mm(F_N)``: the
+    object's indentation under the rod when known (e.g. Hertz from its material), else the object is
+    taken as rigid; its secant compliance between the sweep's two contact forces is used. Refusals raise LocateError; the other outcomes are statuses without a number.
+    """
+    k = membrane_stiffness_Nmm_per_rad(design)[0] if k is None else float(k)
+    EI = bending_stiffness_Nmm2(design) if EI is None else float(EI)
+    b, se_b, b_t, se_bt, tau, tilt, lev, noise = _slopes(design, sweep)
+    L = float(design.whiskers.protrusion)
+    rest = np.abs(lev) < 1e-6
+    theta0 = np.median(tilt[rest], axis=0) if rest.any() else tilt.mean(axis=0) - b * tau.mean()
+    n = len(tau)
+    details = {"compliance_rad_per_Nmm": float(b), "compliance_se": float(se_b), "across_axis": float(b_t),
+               "noise_rad": noise.tolist(), "k_Nmm_per_rad": k, "EI_Nmm2": EI,
+               "sweep_torque_Nmm": float(np.ptp(tau)), "preload_rad": theta0.tolist()}
+    free = 1.0 / k
+    if b > 0.5 * free:
+        return LocateResult("no contact", f"the whisker followed the sweep like a free one (compliance "
+                            f"{b:.3g} rad/(N*mm), free {free:.3g}): nothing holds it", frames=n, details=details)
+    if b <= 0 or b < 2 * se_b:
+        return LocateResult("not observable", f"the sweep moved the base by {abs(b) * np.ptp(tau):.2g} rad, "
+                            f"within the tracker's noise ({noise[0]:.2g} rad per frame x {n} frames): use a "
+                            "longer or stronger sweep or a faster camera", frames=n, details=details)
+    if abs(b_t) > SLIP_SIGMAS * se_bt and abs(b_t) > SLIP_FRACTION * b:
+        return LocateResult("slip or soft contact", f"the base moved across the sweep ({b_t / b:.2f} of the "
+                            "in-axis motion): the contact slides along the object", frames=n, details=details)
+    K = 1.0 / b
+    Kc = K - k
+    span = float(np.ptp(tau))
+    moment = k * abs(theta0[0])
+    Kc_min = 1.0 / (L / (3 * EI) + _secant(contact_indentation_mm, moment, span, L) / L ** 2)
+    # a contact cannot lie beyond the rod: within 2 standard errors of the tip's stiffness the
+    # constrained estimate is the tip; farther out the base is too compliant for any held contact
+    at_tip = contact_indentation_mm is None and Kc < Kc_min and b - 1.0 / (Kc_min + k) < 2 * se_b
+    if at_tip:
+        Kc = Kc_min
+    elif Kc < Kc_min and contact_indentation_mm is None:
+        return LocateResult("slip or soft contact", f"the base is more compliant ({1 / Kc:.3g} rad/(N*mm)) than "
+                            f"a rod held at its tip ({1 / Kc_min:.3g}): the contact slides or the object is soft",
+                            stiffness_Nmm_per_rad=K, frames=n, details=details)
+    roots = _solve_r(Kc, EI, L, moment, span, contact_indentation_mm)
+    if not roots:
+        return LocateResult("slip or soft contact", f"no distance on the rod explains the stiffness {K:.3g} "
+                            "N*mm/rad with this object's compliance", stiffness_Nmm_per_rad=K, frames=n, details=details)
+    if len(roots) > 1:
+        details["candidates_mm"] = roots
+        return LocateResult("ambiguous", "with this object's compliance " + " and ".join(f"{x:.1f}" for x in roots)
+                            + " mm fit the sweep alike", stiffness_Nmm_per_rad=K, frames=n, details=details)
+    r = roots[0]
+    near = _solve_r(Kc * 1.001, EI, L, moment, span, contact_indentation_mm)
+    dr_dKc = abs(min(near, key=lambda x: abs(x - r)) - r) / (Kc * 0.001) if near else float("inf")
+    sigma_r = dr_dKc * se_b / b ** 2
+    details["at_tip"] = bool(at_tip)
+    if sigma_r > NOT_OBSERVABLE_FRACTION * L:
+        return LocateResult("not observable", f"distance {r:.0f} mm would be uncertain by {sigma_r:.0f} mm "
+                            f"(1 sigma): the sweep's response is too close to the noise", frames=n, details=details)
+    force = moment / r
+    return LocateResult("ok", f"contact at {r:.1f} +- {sigma_r:.1f} mm from the pivot, {1e3 * force:.2f} mN",
+                        distance_mm=float(r), distance_sigma_mm=float(sigma_r), force_mN=1e3 * force,
+                        moment_Nmm=float(moment), stiffness_Nmm_per_rad=float(K), frames=n, details=details)
+
+
+def _secant(indentation, moment: float, span: float, r: float) -> float:
+    """Contact compliance (mm/N) between the sweep's two contact forces at distance r: off F0 = M/r,
+    on F0 + span/r (nearly all the sweep's torque goes into the contact); 0 for a rigid object."""
+    if indentation is None:
+        return 0.0
+    F0 = max(moment / r, 1e-6)
+    F1 = F0 + max(span, 1e-9) / r
+    return (float(indentation(F1)) - float(indentation(F0))) / (F1 - F0)
+
+
+def _solve_r(Kc: float, EI: float, L: float, moment: float, span: float, indentation) -> list[float]:
+    """Every r in (0.5, L] with 1/Kc = r/(3 EI) + c(r)/r^2, c the object's secant compliance over the
+    sweep. Rigid object (c = 0): the one root r = 3 EI / Kc. With a compliance the right side has a
+    minimum, so two distances can fit the same stiffness."""
+    if indentation is None:
+        return [3.0 * EI / Kc]
+    target = 1.0 / Kc
+    r = np.linspace(0.5, L, 2000)
+    g = np.array([x / (3 * EI) + _secant(indentation, moment, span, x) / x ** 2 - target for x in r])
+    return [float(r[i] - g[i] * (r[i + 1] - r[i]) / (g[i + 1] - g[i]))
+            for i in np.flatnonzero(np.sign(g[:-1]) != np.sign(g[1:]))]
