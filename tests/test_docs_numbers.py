@@ -171,7 +171,6 @@ CHECKS = [
      r"series_resistance = 0: ([\d.]+) V, level # ([\d.]+), levels above ([\d.]+) refused",
      lambda c: _full_scale(c)),
     ("hw/sensor.toml", r"The wound coil \((\d+) turns, ([\d.]+) ohm\)", lambda c: [c.d.coil.turns, c.d.coil.resistance]),
-    ("hw/sensor.toml", r"bobbin \((\d+) turns, ([\d.]+) ohm;", lambda c: [c.d.coil.turns, c.d.coil.resistance]),
     # assembly: the mould and the adapter
     ("docs/assembly.md", r"puts the rod's lower end (\d+) mm under the membrane", lambda c: [c.d.rod_below_membrane]),
     ("docs/assembly.md", r"\(([\d.]+) g/cm\^3\) is denser than Ecoflex 00-30 \(([\d.]+) g/cm\^3\)",
