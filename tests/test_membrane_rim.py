@@ -17,7 +17,7 @@ from whisker.design import default_design, sizing
 
 @pytest.mark.parametrize("count,radius", [(7, 11.0), (10, 17.0), (8, 12.0)])
 def test_every_rod_is_the_same_distance_from_the_rim(count, radius):
-    d = default_design(f"whiskers.count={count}", f"whiskers.ring_radius={radius}")
+    d = default_design(f"whiskers.count={count}", f"whiskers.ring_radius={radius}", 'membrane.sides="auto"')
     mesh = to_mesh(reference.membrane(d), d.export.linear_tolerance, d.export.angular_tolerance)
     outline = max(section_polygons(mesh, d.membrane.thickness / 2), key=lambda p: p.area)
     dist = [outline.exterior.distance(Point(*polar_xy(radius, a))) for a in d.whisker_angles_deg]
@@ -38,7 +38,7 @@ def test_the_bench_octagon_for_seven_whiskers_was_uneven():
 @settings(max_examples=30, deadline=None)
 @given(st.integers(min_value=2, max_value=16))
 def test_auto_sides_share_the_ring_symmetry(n):
-    d = default_design(f"whiskers.count={n}")
+    d = default_design(f"whiskers.count={n}", 'membrane.sides="auto"')
     sides = sizing.membrane_sides(d)
     assert sides % n == 0 and sides >= sizing.MIN_MEMBRANE_SIDES and sides - n < sizing.MIN_MEMBRANE_SIDES
     outline = Polygon(polygon_points(sides, 20.0))

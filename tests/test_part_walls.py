@@ -14,8 +14,8 @@ from whisker.design import default_design, fasteners
 from test_walls import _plate
 
 #: The default design and the two off-paper designs the bench tried.
-DESIGNS = {"default": (), "7@11mm": ("whiskers.count=7", "whiskers.ring_radius=11"),
-           "10@17mm": ("whiskers.count=10", "whiskers.ring_radius=17")}
+DESIGNS = {"default": (), "7@11mm": ("whiskers.count=7", "whiskers.ring_radius=11", 'membrane.sides="auto"'),
+           "10@17mm": ("whiskers.count=10", "whiskers.ring_radius=17", 'membrane.sides="auto"')}
 
 
 def test_a_feature_with_its_own_limit_is_held_to_it():
