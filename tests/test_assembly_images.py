@@ -93,7 +93,7 @@ def test_the_pages_link_only_pictures_that_exist():
     import re
 
     docs = DOCS.parents[1]
-    for page in ("bringup.md", "assembly.md"):
+    for page in ("build.md", "assembly.md"):
         links = re.findall(r'src="(images/assembly/[^"]+)"', (docs / page).read_text())
         assert links, page
         assert all((docs / link).is_file() for link in links), page

@@ -78,6 +78,27 @@ def _bom_for(n: int, *sets: str):
 
 EXPANDER = 'wiring.expander="pca9685"'
 
+
+def _series(c: Ctx) -> list[float]:
+    """hw/sensor.toml's worked series-resistor rule (whisker.coil.driver.series_resistance_ohm)."""
+    from whisker.coil import driver
+    d = c.d
+    b, rc, vs, vmax = driver.bridge(d.driver.type), d.coil.resistance, d.driver.supply_voltage, d.drive.max_coil_voltage
+    rs = driver.series_resistance_ohm(d)
+    p = driver.resistor_power_W(d)
+    return [rc, vs - b.v0_typ, vmax, rc + b.r_typ, rc * (vs - b.v0_typ) / vmax - rc - b.r_typ, rs,
+            driver.plan(d)["coil_V_full_on_design"], p, driver.resistor_rating_W(p)]
+
+
+def _full_scale(c: Ctx) -> list[float]:
+    """hw/sensor.toml's full-scale voltage comment: with the design's resistor and without one."""
+    from whisker.coil import driver
+    d = c.d
+    p = driver.plan(d)
+    v, v0 = p["coil_V_full_on_design"], p["coil_V_full_on"]
+    return [v, d.driver.supply_voltage, driver.series_resistance_ohm(d), d.coil.resistance,
+            d.actuation.voltage / v, v0, d.actuation.voltage / v0, d.drive.max_coil_voltage / v0]
+
 #: (file, statement regex, expected values of its groups). Numbers compare to the doc's digits.
 CHECKS = [
     # README: the sensor, the sizing table, the parts
@@ -143,6 +164,15 @@ CHECKS = [
                 _bom_for(12, EXPANDER)["magnet_wire"].value]),
     ("docs/bom.md", r"`ISO 4762 - M3 x (\d+) - 8.8 \(DIN 912 M3 x (\d+)\)`",
      lambda c: [fasteners.screw_length("M3", "insert", adapter.layout(c.d)["thickness"] - 3.5)[0]] * 2),
+    # the design file's comments (hw/sensor.toml): the driver numbers the build and the BOM use
+    ("hw/sensor.toml", r"Rs >= Rc \(Vs - V0\)/Vmax - Rc - r = ([\d.]+) x ([\d.]+)/([\d.]+) - ([\d.]+) # = ([\d.]+) ohm "
+     r"-> ([\d.]+) ohm \(E24\): ([\d.]+) V at the coil at level 1, ([\d.]+) W in # the resistor \(a (\d+) W part\)",
+     lambda c: _series(c)),
+    ("hw/sensor.toml", r"shared by the series resistor and the coil: ([\d.]+) V for ([\d.]+) V, an # L298N, ([\d.]+) \+ "
+     r"([\d.]+) ohm, so the paper's 3 V is level ([\d.]+) and every level # is within max_coil_voltage; with "
+     r"series_resistance = 0: ([\d.]+) V, level # ([\d.]+), levels above ([\d.]+) refused",
+     lambda c: _full_scale(c)),
+    ("hw/sensor.toml", r"The wound coil \((\d+) turns, ([\d.]+) ohm\)", lambda c: [c.d.coil.turns, c.d.coil.resistance]),
     # assembly: the mould and the adapter
     ("docs/assembly.md", r"puts the rod's lower end (\d+) mm under the membrane", lambda c: [c.d.rod_below_membrane]),
     ("docs/assembly.md", r"\(([\d.]+) g/cm\^3\) is denser than Ecoflex 00-30 \(([\d.]+) g/cm\^3\)",

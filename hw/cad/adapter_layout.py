@@ -37,7 +37,7 @@ def _min_gap(p: np.ndarray, q: np.ndarray) -> float:
     return float(np.min(np.linalg.norm(p[:, None, :] - q[None, :, :], axis=-1)))
 
 
-def _angles(d: Design, a, fl, r_c: float, cb_s: float, cb_r: float, insert_d: float):
+def _angles(d: Design, a, fl, r_c: float, cb_s: float, cb_r: float, insert_d: float, insert_wall: float):
     """(coupling angles, robot bolt angles, pin angle) in deg, 0.5 deg steps: the coupling screws
     keep out of the flat cable's channel (-y) and, like the bolts and the pin, as far as possible
     from the holes they share a plate with (the largest smallest margin over a wall)."""
@@ -63,9 +63,9 @@ def _angles(d: Design, a, fl, r_c: float, cb_s: float, cb_r: float, insert_d: fl
                 pts = _points(r_p, angles)[:, :, None, :] - cp[None, None, :, :]
                 return np.linalg.norm(pts, axis=-1).min(axis=-1)
 
-            pin_gap = gap(mids) - (fl.pin_diameter + insert_d) / 2 - w
+            pin_gap = gap(mids) - (fl.pin_diameter + insert_d) / 2 - insert_wall
             k = np.argmax(pin_gap, axis=1)
-            m_all = np.minimum(gap(b).min(axis=1) - (cb_r + insert_d) / 2 - w, pin_gap[np.arange(len(offs)), k])
+            m_all = np.minimum(gap(b).min(axis=1) - (cb_r + insert_d) / 2 - insert_wall, pin_gap[np.arange(len(offs)), k])
             i = int(np.argmax(m_all))
             worst_b, choice = float(m_all[i]), (c, list(b[i]), float(mids[i, k[i]]))
             margin = min(margin, worst_b)
@@ -102,7 +102,7 @@ def _layout(d: Design, preset: str | None) -> dict:
     insert = fasteners.hole(d.fasteners.mount_screw, "insert")
     # coupling screws: counterbores outside the mount's outline, so a hex key reaches them from above
     r_c = d.mount.outer_radius + d.print.clearance + cb_s / 2
-    coupling, bolts, pin = _angles(d, a, fl, r_c, cb_s, cb_r, insert.diameter)
+    coupling, bolts, pin = _angles(d, a, fl, r_c, cb_s, cb_r, insert.diameter, insert.wall(w))
 
     # adapter: counterbores from below (mount screws) and from the top (coupling screws, camera relief)
     t_a = max(sensor.head_height + 0.5 + a.under_head, a.relief_depth + w + sensor.head_height + 0.5)
@@ -114,7 +114,8 @@ def _layout(d: Design, preset: str | None) -> dict:
     t_f = max(insert.depth + w, (robot.head_height + 0.5 + a.under_head) if robot else 0.0)
     if robot:
         t_f = _stock_thickness(t_f, [(fl.thread, "through", robot.head_height + 0.5, fl.thread_depth)])
-    r_f = max(fl.flange_diameter / 2, r_c + fasteners.fastener(d.fasteners.mount_screw).insert_od / 2 + w + 0.1,
+    # the coupling inserts keep the fastener table's insert wall (hw/fasteners.csv) to the plate's rim
+    r_f = max(fl.flange_diameter / 2, r_c + insert.diameter / 2 + insert.wall(w) + 0.1,
               (fl.pitch_diameter + cb_r) / 2 + w + 0.1 if robot else 0.0)
     return dict(settings=a, flange=fl, sensor=sensor, robot=robot, insert=insert,
                 top=top, bottom=top - t_a, thickness=t_a, radius=r_a,

@@ -21,7 +21,7 @@ from whisker.files import atomic_write_json, drop_stale_staging, publish, stagin
 
 from . import checks, mold_checks, sequence
 from .assembly import export_step, sensor_assembly
-from .buildkey import FORMATS, build_key, file_sha256
+from .buildkey import FORMATS, build_key, content_sha256, file_sha256, fix_step_timestamp
 from .parts import PARTS, print_pose, print_transform
 
 
@@ -97,6 +97,7 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = FORMATS,
                 entry["files"]["stl"] = f"{spec.name}.stl"
             if "step" in formats:
                 cq.exporters.export(cq.Workplane().add(shape), str(tmp / f"{spec.name}.step"))
+                fix_step_timestamp(tmp / f"{spec.name}.step")
                 entry["files"]["step"] = f"{spec.name}.step"
             files += list(entry["files"].values())
             parts[spec.name] = entry
@@ -114,6 +115,7 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = FORMATS,
         if "step" in formats:
             say("exporting assembly")
             export_step(sensor_assembly(d, solids["mount"], solids["membrane"]), str(tmp / "assembly.step"))
+            fix_step_timestamp(tmp / "assembly.step")
             files.append("assembly.step")
 
         say("measuring the meshes")
@@ -140,6 +142,8 @@ def build(d: Design, out: str | Path, formats: tuple[str, ...] = FORMATS,
         timings["total_s"] = time.perf_counter() - t0
         manifest = {
             "file_sha256": {name: file_sha256(tmp / name) for name in files},
+            # what each file holds, without a STEP file's write time (tests/test_exports.py)
+            "content_sha256": {name: content_sha256(tmp / name) for name in files},
             "generator": "whisker cad build",
             "build_key": build_key(d, formats),
             "design_digest": d.digest(),
@@ -173,6 +177,7 @@ def mesh_design_checks(d: Design, meshes: dict[str, trimesh.Trimesh]) -> list[ch
     return (checks.membrane_checks(meshes["membrane"], d)
             + checks.mold_checks(meshes["mold_base"], meshes["mold_lid"], d)
             + mold_checks.release_checks(meshes["mold_base"], meshes["whisker_ring"], d)
+            + mold_checks.vent_checks(meshes["mold_lid"], meshes["whisker_ring"], d)
             + checks.ring_checks(meshes["whisker_ring"], d)
             + checks.mount_checks(meshes["mount"], meshes["membrane"], d))
 
@@ -184,11 +189,16 @@ def wall_checks(d: Design, meshes: dict[str, trimesh.Trimesh]) -> list[checks.Ch
 
     from . import part_features, walls
 
-    jobs = [(name, meshes[name], feats, minw, sep) for name, (feats, minw, sep) in part_features.all_printed(d).items()
-            if name in meshes]
+    jobs = [(name, meshes[name], feats, minw, sep, own) for name, (feats, minw, sep, own)
+            in part_features.all_printed(d).items() if name in meshes]
+
+    def params(name, own):
+        base = ("bobbin.min_wall",) if name == "bobbin" else ("print.min_wall",)
+        return base + (("fasteners.mount_joint", "mount.outer_radius") if own else ())
+
     return Parallel(n_jobs=2, prefer="threads")(
-        delayed(walls.wall_check)(name, mesh, feats, minw, ("print.min_wall",) if name != "bobbin"
-                                  else ("bobbin.min_wall",), separate=sep) for name, mesh, feats, minw, sep in jobs)
+        delayed(walls.wall_check)(name, mesh, feats, minw, params(name, own), separate=sep, limits=own)
+        for name, mesh, feats, minw, sep, own in jobs)
 
 
 def _previous_files(out: Path) -> list[str]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from pathlib import Path
 
 import whisker
@@ -57,3 +58,57 @@ def up_to_date(out: str | Path, d: Design, formats: tuple[str, ...] = FORMATS) -
         return all(file_sha256(out / name) == digest for name, digest in hashes.items())
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return False
+
+
+_STEP_STAMP = re.compile(rb"^(FILE_NAME\('[^']*',)'[^']*'", re.M)
+_STEP_ID = re.compile(rb"#\d+")
+_STEP_STYLE = b"MECHANICAL_DESIGN_GEOMETRIC_PRESENTATION_REPRESENTATION"
+
+
+def step_timestamp() -> str:
+    """The write time put in every STEP file's FILE_NAME: SOURCE_DATE_EPOCH (the reproducible-builds
+    convention) when set, else the epoch, so a rebuild of unchanged parts writes the same bytes and
+    the committed exports/ stay clean in git."""
+    import os
+    from datetime import datetime, timezone
+
+    try:
+        t = int(os.environ.get("SOURCE_DATE_EPOCH", "0"))
+    except ValueError:
+        t = 0
+    return datetime.fromtimestamp(t, timezone.utc).strftime("%Y-%m-%dT%H:%M:%S")
+
+
+def fix_step_timestamp(path: str | Path) -> None:
+    """Rewrite the STEP file's FILE_NAME write time to :func:`step_timestamp` (in place; the file is
+    in the build's staging folder, published atomically afterwards)."""
+    p = Path(path)
+    data = p.read_bytes()
+    new = _STEP_STAMP.sub(rb"\1'" + step_timestamp().encode() + rb"'", data, count=1)
+    if new != data:
+        p.write_bytes(new)
+
+
+def content_sha256(path: str | Path) -> str:
+    """Hash of what a file holds, for the reproduction test (tests/test_exports.py), hex.
+
+    STL files are hashed as they are: OpenCASCADE's tessellation writes the same bytes on every run
+    (checked by building twice). A STEP file carries its write time in FILE_NAME, and an assembly's
+    colour section (after the first MECHANICAL_DESIGN_GEOMETRIC_PRESENTATION_REPRESENTATION) comes in
+    a different order from run to run; the hash leaves out the time and takes that section's entities
+    as a sorted list with their ``#n`` ids blanked (which colours are used, not in which order).
+    """
+    return content_digest(Path(path).read_bytes(), Path(path).suffix)
+
+
+def content_digest(data: bytes, suffix: str) -> str:
+    """:func:`content_sha256` of a file's bytes; `suffix` (".stl", ".step") says how to read them."""
+    if suffix.lower() not in (".step", ".stp"):
+        return hashlib.sha256(data).hexdigest()
+    data = _STEP_STAMP.sub(rb"\1''", data, count=1)
+    head, sep, tail = data.partition(_STEP_STYLE)
+    if sep:
+        body, _, end = (sep + tail).rpartition(b"ENDSEC;")
+        ents = sorted(_STEP_ID.sub(b"#", e.strip()) for e in body.split(b";") if e.strip())
+        data = head + b";".join(ents) + b"ENDSEC;" + end
+    return hashlib.sha256(data).hexdigest()

@@ -34,7 +34,9 @@ def layout(d: Design) -> dict[str, float]:
     cs = d.print.coupon_clearances
     wall = max(d.print.min_wall, 2.0)
     pocket_max = d.magnet.diameter + 2 * max(cs)
-    pitch = max(pocket_max + 2 * wall, 0.6 * LABEL_SIZE * (len(label(max(cs, key=lambda c: len(label(c))))) + 1))
+    longest = max(len(label(c)) for c in cs)
+    # a glyph is at most ~0.7 em wide; print.min_wall between glyphs (label_glyphs), a wall each side
+    pitch = max(pocket_max + 2 * wall, (0.7 * LABEL_SIZE + d.print.min_wall) * longest + 2 * wall)
     plate_t = max(3.0, 2 * d.print.min_wall)
     pocket_depth = d.magnet.height + d.mount.glue_gap
     rod_y = wall + d.whiskers.rod_diameter / 2 + max(cs)
@@ -52,20 +54,55 @@ def column_x(d: Design) -> list[float]:
     return [lay["pitch"] * (k + 0.5) for k in range(len(d.print.coupon_clearances))]
 
 
+def coupon_tools(d: Design) -> dict[str, cq.Shape]:
+    """Every solid cut from the coupon, by name (the wall check names them): per clearance its rod
+    hole, magnet pocket and each engraved glyph of its label."""
+    lay = layout(d)
+    tools: dict[str, cq.Shape] = {}
+    for c, x in zip(d.print.coupon_clearances, column_x(d)):
+        tools[f"rod hole {c:g}"] = cq.Solid.makeCylinder(d.whiskers.rod_diameter / 2 + c, lay["plate_t"] + 2,
+                                                         cq.Vector(x, lay["rod_y"], -1), cq.Vector(0, 0, 1))
+        tools[f"magnet pocket {c:g}"] = cq.Solid.makeCylinder(d.magnet.diameter / 2 + c, lay["pocket_depth"] + 0.5,
+                                                              cq.Vector(x, lay["wall_y0"] - 0.5, lay["pocket_z"]),
+                                                              cq.Vector(0, 1, 0))
+        for k, g in enumerate(label_glyphs(d, c, x, lay["label_y"], lay["plate_t"])):
+            tools[f"label {c:g} glyph {k}"] = g
+    return tools
+
+
+def edges(d: Design) -> dict[str, cq.Shape]:
+    """The space around the plate's four sides, for the wall check."""
+    from .walls import outside_box
+
+    lay = layout(d)
+    return {"plate edge": outside_box((0.0, 0.0, 0.0), (lay["width"], lay["wall_y0"], lay["plate_t"]))}
+
+
 def tolerance_coupon(d: Design) -> cq.Shape:
     lay = layout(d)
     body = cq.Solid.makeBox(lay["width"], lay["depth"], lay["plate_t"])
     wall = cq.Solid.makeBox(lay["width"], lay["wall_t"], lay["wall_h"] + 0.01,
                             cq.Vector(0, lay["wall_y0"], lay["plate_t"] - 0.01))
     body = body.fuse(wall).clean()
-    tools: list[cq.Shape] = []
-    for c, x in zip(d.print.coupon_clearances, column_x(d)):
-        tools.append(cq.Solid.makeCylinder(d.whiskers.rod_diameter / 2 + c, lay["plate_t"] + 2,
-                                           cq.Vector(x, lay["rod_y"], -1), cq.Vector(0, 0, 1)))
-        tools.append(cq.Solid.makeCylinder(d.magnet.diameter / 2 + c, lay["pocket_depth"] + 0.5,
-                                           cq.Vector(x, lay["wall_y0"] - 0.5, lay["pocket_z"]), cq.Vector(0, 1, 0)))
-        text = (cq.Workplane("XY", origin=(x, lay["label_y"], lay["plate_t"]))
-                .text(label(c), LABEL_SIZE, -LABEL_DEPTH, combine=False, halign="center", valign="center",
-                      font=LABEL_FONT))
-        tools.append(text.val())
-    return body.cut(*tools).clean()
+    return body.cut(*coupon_tools(d).values()).clean()
+
+
+def _glyph(ch: str, z: float) -> cq.Shape:
+    return (cq.Workplane("XY", origin=(0, 0, z))
+            .text(ch, LABEL_SIZE, -LABEL_DEPTH, combine=False, halign="center", valign="bottom", font=LABEL_FONT)
+            .val())
+
+
+def label_glyphs(d: Design, c: float, x: float, y: float, z: float) -> list[cq.Shape]:
+    """The engraving of one clearance label, one solid per character, centred on (x, y) at the plate's
+    top z. Set with the font's own spacing, "0.1" left 0.01 mm of plate between the "0" and the "."
+    (too thin to print: the label blurs); each glyph here is placed print.min_wall after the last."""
+    glyphs = [_glyph(ch, z) for ch in label(c)]
+    boxes = [g.BoundingBox() for g in glyphs]
+    width = sum(b.xlen for b in boxes) + d.print.min_wall * (len(glyphs) - 1)
+    out, left = [], x - width / 2
+    lo, hi = min(b.ymin for b in boxes), max(b.ymax for b in boxes)  # on one baseline, centred on y
+    for g, b in zip(glyphs, boxes):
+        out.append(g.translate(cq.Vector(left - b.xmin, y - (lo + hi) / 2, 0)))
+        left += b.xlen + d.print.min_wall
+    return out

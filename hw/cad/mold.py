@@ -2,9 +2,12 @@
 
 The base holds the membrane-shaped cavity, as deep as the membrane is thick, with a blind socket
 per rod in its floor. The lid closes the cavity, guides every rod through a hole at the ring
-radius, and has a pour opening in the centre and a vent over each polygon corner (where air is
-trapped). Three registration pins at uneven angles let the lid sit only one way, so its rod holes
-line up.
+radius, and has a pour opening in the centre and a vent at each polygon corner: the cavity's top
+face is flat (the lid), so its high points are that whole face and the places a pour from the centre
+fills last are the corners, where air is trapped. Each vent reaches its corner, and the whisker
+ring's tube stands inside the vents' circle, so the pourer sees every vent from above and pours
+until each one shows silicone. Three registration pins at uneven angles let the lid sit only one
+way, so its rod holes line up; their holes go through the lid (no thin roof over a pin).
 
 Each rod is located axially by a *stop*: it stands on the floor of its socket in the base, so its
 lower end is exactly ``rod_below_membrane`` under the membrane (that end carries the bobbin). The
@@ -100,13 +103,14 @@ def lid_tools(d: Design) -> dict[str, cq.Shape]:
     for i, a in enumerate(d.whisker_angles_deg):
         tools[f"rod guide {i}"] = cylinder(d.hole(d.whiskers.rod_diameter) / 2, z0 - 1, z1 + 1,
                                            *polar_xy(d.whiskers.ring_radius, a))
-    # over the corners of the cavity's top face, a vent's width in from the corner
-    rv = cavity_inscribed_radius(d, t) / math.cos(math.pi / d.membrane.sides) - m.vent_diameter
+    # over the corners of the cavity's top face, each vent's rim at its corner (the last place to fill)
+    rv = cavity_inscribed_radius(d, t) / math.cos(math.pi / d.membrane.sides) - m.vent_diameter / 2
     for i, (x, y) in enumerate(polygon_points(d.membrane.sides, d.membrane.inscribed_radius)):
         r = math.hypot(x, y)
         tools[f"vent {i}"] = cylinder(m.vent_diameter / 2, z0 - 1, z1 + 1, x * rv / r, y * rv / r)
     for i, (x, y) in enumerate(pin_positions(d)):
-        tools[f"pin hole {i}"] = cylinder(d.hole(m.pin_diameter) / 2, z0 - 1, z0 + m.pin_height + 0.5, x, y)
+        # through the lid: a blind pocket would leave lid_thickness - pin_height of roof (0.5 mm at 4 / 3 mm)
+        tools[f"pin hole {i}"] = cylinder(d.hole(m.pin_diameter) / 2, z0 - 1, z1 + 1, x, y)
     return tools
 
 

@@ -10,6 +10,9 @@ the draft that lets the cured membrane out, and each rod's stop and axial slack.
 - Stop and slack: a ray down each rod socket of the base finds its floor (the rod's stop), a ray up
   each socket of the ring finds its end; the slack is that end minus the tip of a nominal rod
   standing on its stop, and must be ``mold.rod_slack`` (>= 0: a nominal rod is never clamped).
+- Vents in sight: a ray straight up from each vent of the lid (measured on the lid's mesh: the
+  holes of its top face outside the rod ring) must miss the whisker ring standing on it, so the
+  pourer sees silicone rise in every vent.
 """
 
 from __future__ import annotations
@@ -93,3 +96,23 @@ def release_checks(base: trimesh.Trimesh, ring_mesh: trimesh.Trimesh, d: Design)
                       ("mold.rod_slack", "ring.hole_depth"), f"{len(found)} rods; a rod up to {m.rod_slack:g} mm "
                       "long still stands on its stop"))
     return out
+
+
+def vent_checks(lid: trimesh.Trimesh, ring_mesh: trimesh.Trimesh, d: Design) -> list[Check]:
+    """Every vent of the lid is at a cavity corner and visible from above past the whisker ring."""
+    from .checks import _ray_hits, describe_circles
+
+    top = d.membrane.thickness + d.mold.lid_thickness
+    corner = d.membrane.inscribed_radius / math.cos(math.pi / d.membrane.sides)
+    circles = describe_circles(holes(section(lid, top - 0.5)))
+    found = [polar_xy(r, a) for r, a, dia in circles
+             if abs(dia - d.mold.vent_diameter) < 0.05 and r > d.whiskers.ring_radius + 1]
+    hidden = [(x, y) for x, y in found if len(_ray_hits(ring_mesh, (x, y, top + 0.1), (0, 0, 1)))]
+    reach = max((corner - math.hypot(x, y) - d.mold.vent_diameter / 2 for x, y in found), default=math.inf)
+    return [make_check("vents at the cavity's corners", "mold_lid", len(found), len(found) == d.membrane.sides and reach <= 0.1,
+                       f"== {d.membrane.sides}, each rim at its corner", "", ("membrane.sides", "mold.vent_diameter"),
+                       f"each vent's rim within {max(reach, 0.0):.2f} mm of its corner (nominal cavity)"),
+            make_check("vents in sight from above with the whisker ring on", "whisker_ring", len(hidden),
+                       not hidden, "== 0", "", ("ring.margin", "mold.vent_diameter"),
+                       f"hidden under the ring: {hidden}" if hidden else "a ray up from every vent misses the ring")]
+

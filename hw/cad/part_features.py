@@ -53,16 +53,41 @@ FEATURES = {"mount": mount_features, "mold_base": mold_base_features, "mold_lid"
             "whisker_ring": ring_features}
 
 
-def all_printed(d: Design) -> dict[str, tuple[Features, float, list[str]]]:
-    """Every printed part's (features, thinnest wall in mm, features that must not meet any other):
-    the FDM parts at print.min_wall, the resin bobbin at bobbin.min_wall."""
-    from . import adapter, bobbin, cover, winding_jig
+def insert_walls(d: Design) -> dict[str, dict[str, float]]:
+    """Part -> {feature: thinnest wall around it, mm} for every feature that holds a heat-set insert:
+    the fastener table's insert_min_wall (hw/fasteners.csv), read through fasteners.Hole.wall."""
+    from whisker.design import fasteners
 
-    out = {name: (fn(d), d.print.min_wall, []) for name, fn in FEATURES.items()}
-    out["adapter"] = ({**adapter.adapter_tools(d), **adapter.edges(d)}, d.print.min_wall, adapter.separate(d))
+    from . import adapter
+
+    out: dict[str, dict[str, float]] = {}
+    f = d.fasteners
+    if f.mount_joint == "insert":
+        wall = d.mounting_hole_wall
+        out["mount"] = {n: wall for n in mount.mount_tools(d) if n.startswith("mounting hole")}
+    if f.cover_joint == "insert":
+        wall = fasteners.hole(f.cover_screw, "insert").wall(d.print.min_wall)
+        out.setdefault("mount", {}).update({n: wall for n in mount.mount_tools(d) if n.startswith("cover screw")})
+    wall = fasteners.hole(f.mount_screw, "insert").wall(d.print.min_wall)  # the flange plate's coupling inserts
+    out["flange_plate"] = {n: wall for n in adapter.plate_tools(d) if n.startswith("coupling insert")}
+    return out
+
+
+def all_printed(d: Design) -> dict[str, tuple[Features, float, list[str], dict[str, float]]]:
+    """Every printed part's (features, thinnest wall in mm, features that must not meet any other,
+    {feature: its own thinnest wall in mm}): the FDM parts at print.min_wall, the resin bobbin at
+    bobbin.min_wall, the holes of heat-set inserts at the fastener table's insert wall."""
+    from . import adapter, bobbin, coupon, cover, winding_jig
+
+    own = insert_walls(d)
+    out = {name: (fn(d), d.print.min_wall, [], own.get(name, {})) for name, fn in FEATURES.items()}
+    out["adapter"] = ({**adapter.adapter_tools(d), **adapter.edges(d)}, d.print.min_wall, adapter.separate(d), {})
     out["flange_plate"] = ({**adapter.plate_tools(d), **adapter.plate_edges(d)}, d.print.min_wall,
-                           adapter.plate_separate(d))
-    out["cover"] = ({**cover.cover_tools(d), **cover.edges(d)}, d.print.min_wall, [])
-    out["winding_jig"] = ({**winding_jig.jig_tools(d), **winding_jig.edges(d)}, d.print.min_wall, [])
-    out["bobbin"] = ({**bobbin.bobbin_tools(d), **bobbin.edges(d)}, d.bobbin.min_wall, [])
+                           adapter.plate_separate(d), own.get("flange_plate", {}))
+    out["cover"] = ({**cover.cover_tools(d), **cover.edges(d)}, d.print.min_wall, [], {})
+    out["winding_jig"] = ({**winding_jig.jig_tools(d), **winding_jig.edges(d)}, d.print.min_wall, [], {})
+    out["bobbin"] = ({**bobbin.bobbin_tools(d), **bobbin.edges(d)}, d.bobbin.min_wall, [], {})
+    # printed once; its engraved glyphs are features, so the plate between them keeps print.min_wall.
+    # (The board holder has one 6 mm push-out hole in a pedestal of the neck's size: no wall to check.)
+    out["tolerance_coupon"] = ({**coupon.coupon_tools(d), **coupon.edges(d)}, d.print.min_wall, [], {})
     return out

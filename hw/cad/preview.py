@@ -51,11 +51,13 @@ def shade(mesh: trimesh.Trimesh, color: str, ambient: float = 0.35) -> np.ndarra
 
 def render(meshes: list[tuple[trimesh.Trimesh, str]], title: str, size_px: tuple[int, int] = (900, 700),
            elev: float = 28.0, azim: float = -58.0, bed: tuple[float, float] | None = None,
-           paths: list[np.ndarray] | None = None, path_color: str = "#1f4e79") -> bytes:
+           paths: list[np.ndarray] | None = None, path_color: str = "#1f4e79",
+           labels: list[tuple[np.ndarray, str]] | None = None) -> bytes:
     """PNG bytes of the meshes (each with a colour) seen from (elev, azim) in degrees.
 
     `paths`: polylines (N x 3, mm) drawn dashed over the meshes with an arrow head at their end
-    (assembly pictures: where a part goes)."""
+    (assembly pictures: where a part goes). `labels`: (point, text) callouts drawn over everything,
+    the text in a white box at the point (part names, whisker numbers, +x, magnet poles)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -63,8 +65,9 @@ def render(meshes: list[tuple[trimesh.Trimesh, str]], title: str, size_px: tuple
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     paths = [np.asarray(p, float) for p in paths or [] if len(p) > 1]
-    lo = np.min([m.bounds[0] for m, _ in meshes] + [p.min(0) for p in paths], axis=0)
-    hi = np.max([m.bounds[1] for m, _ in meshes] + [p.max(0) for p in paths], axis=0)
+    labels = [(np.asarray(p, float), t) for p, t in labels or []]
+    lo = np.min([m.bounds[0] for m, _ in meshes] + [p.min(0) for p in paths] + [p for p, _ in labels], axis=0)
+    hi = np.max([m.bounds[1] for m, _ in meshes] + [p.max(0) for p in paths] + [p for p, _ in labels], axis=0)
     # Painter's algorithm sorts whole faces: long faces sort wrongly, so split them to a fine size.
     meshes = [(fine(m, max(hi - lo) / FINENESS), c) for m, c in meshes]
     tris = np.concatenate([m.triangles for m, _ in meshes])
@@ -80,6 +83,11 @@ def render(meshes: list[tuple[trimesh.Trimesh, str]], title: str, size_px: tuple
             u = p[-1] - p[-2]
             u = u / max(np.linalg.norm(u), 1e-9) * 0.05 * max(hi - lo)  # a head 5 % of the view long
             ax.quiver(*(p[-1] - u), *u, color=path_color, lw=1.6, arrow_length_ratio=0.9, zorder=11)
+    if labels:  # on top of the meshes and the paths
+        ax.computed_zorder = False
+        for p, text in labels:
+            ax.text(*p, text, fontsize=8, zorder=20, ha="center", va="center",
+                    bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="#555555", lw=0.5, alpha=0.85))
     if bed is not None:  # a square of bed around the part, not the whole bed
         pad = 0.15 * max(hi[:2] - lo[:2]) + 2
         bx = [lo[0] - pad, hi[0] + pad, hi[0] + pad, lo[0] - pad, lo[0] - pad]
@@ -128,6 +136,11 @@ def assembly_meshes(d: Design, out: Path, manifest: dict) -> list[tuple[trimesh.
     return items
 
 
+#: Parts printed in resin, not FDM (no print pose in the manifest), shown as modelled: the build guide
+#: names their picture.
+RESIN_PREVIEW = ("bobbin",)
+
+
 def write_previews(d: Design, out: Path, images: Path, size_px: tuple[int, int] = (900, 700),
                    progress: Callable[[str], None] | None = None) -> list[Path]:
     """One PNG per printable part (``<part>.png``) and ``assembly.png`` into ``images``."""
@@ -136,11 +149,12 @@ def write_previews(d: Design, out: Path, images: Path, size_px: tuple[int, int] 
     say = progress or (lambda name: None)
     paths = []
     for name, part in manifest["parts"].items():
-        if not part.get("printable"):
+        if not part.get("printable") and name not in RESIN_PREVIEW:
             continue
         mesh = _load(out, manifest, name, False)
         x, y, z = mesh.extents
-        title = f"{name} ({x:.0f} x {y:.0f} x {z:.0f} mm, as printed)"
+        title = (f"{name} ({x:.1f} x {y:.1f} x {z:.1f} mm, resin print, docs/build.md)" if name in RESIN_PREVIEW
+                 else f"{name} ({x:.0f} x {y:.0f} x {z:.0f} mm, as printed)")
         png = render([(mesh, COLORS.get(name, "#cccccc"))], title, size_px, bed=(d.print.bed_x, d.print.bed_y))
         paths.append(atomic_write_bytes(images / f"{name}.png", png))
         say(name)

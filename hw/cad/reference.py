@@ -80,10 +80,19 @@ def magnet(d: Design, angle_deg: float = 0.0) -> cq.Shape:
 
 
 def led_strip(d: Design) -> cq.Shape:
-    """The LED strip in its channel below the magnets (a band at the channel's radius; bought)."""
+    """The LED strip in its channel below the magnets, as bought: whole segments (sizing.led_strip,
+    the BOM's length) cover that share of the channel, the gap centred at -y over the flat cable's
+    side (a band at the channel's radius)."""
     z, m = sizing.mount_levels(d), d.mount
     ro = sizing.led_outer_radius(d) - d.print.clearance
     ri = ro - m.led_strip_thickness
     zc, w = (z["led_top"] + z["led_bottom"]) / 2, m.led_strip_width
     band = cq.Solid.makeCylinder(ro, w, cq.Vector(0, 0, zc - w / 2)).cut(cq.Solid.makeCylinder(ri, w, cq.Vector(0, 0, zc - w / 2)))
-    return band
+    circ, _, length = sizing.led_strip(d)
+    arc = min(360.0, 360.0 * length / circ)
+    if arc >= 360.0 - 1e-6:
+        return band
+    start = -90.0 + (360.0 - arc) / 2  # the gap is centred on -90 deg
+    wedge = cq.Solid.makeCylinder(ro + 1, w + 2, cq.Vector(0, 0, zc - w / 2 - 1), cq.Vector(0, 0, 1), arc)
+    wedge = wedge.rotate(cq.Vector(0, 0, 0), cq.Vector(0, 0, 1), start)
+    return band.intersect(wedge)

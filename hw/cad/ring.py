@@ -1,7 +1,8 @@
 """Whisker ring: the gluing and casting jig (printable).
 
 A ring plate with a blind socket per rod at the ring radius stands on a tube on the mould lid and
-keeps all rods parallel while the Ecoflex cures. The rods stand on their stops in the mould base
+keeps all rods parallel while the Ecoflex cures. It stands inside the lid's vents, which stay in
+sight from above. The rods stand on their stops in the mould base
 (mold.py), so a nominal rod's tip is ``whiskers.protrusion`` above the membrane; each socket ends
 ``mold.rod_slack`` above that tip (the axial slack: a rod cut a little long still reaches its stop). The plate's central
 opening lets the Ecoflex be poured into the lid's pour opening with the jig in place.
@@ -13,15 +14,16 @@ import cadquery as cq
 
 from whisker.design import Design
 
-from . import mold
 from .shapes import cut_all, cylinder, polar_xy
 
 
 def radii(d: Design) -> dict[str, float]:
-    """Inner opening, outer plate radius and tube radii (mm)."""
+    """Inner opening, outer plate radius and tube radii (mm). The plate and the tube end ring.margin
+    outside the sockets, inside the mould lid's vents (at the cavity's corners), so the pourer sees
+    every vent from above with the jig in place (whisker.cad.mold_checks.vent_checks)."""
     w, r = d.whiskers, d.ring
     socket_r = d.hole(w.rod_diameter) / 2
-    outer = max(w.ring_radius + socket_r + r.margin, mold.outer_radius(d))
+    outer = w.ring_radius + socket_r + r.margin
     # The Ecoflex is poured through the plate's opening: never narrower than the pour opening.
     opening = max(w.ring_radius - socket_r - r.margin, d.mold.pour_diameter / 2)
     return dict(opening=opening, outer=outer, tube_inner=outer - r.tube_wall)

@@ -49,6 +49,7 @@ class Wall:
     thickness: float                      # mm
     point_a: tuple[float, float, float]   # on feature a's surface
     point_b: tuple[float, float, float]
+    limit: float = 0.0                    # mm, the thinnest this wall may be (its features' largest limit)
 
     @property
     def where(self) -> tuple[float, float, float]:
@@ -186,9 +187,14 @@ def _first_in_material(part: trimesh.Trimesh, p: np.ndarray, q: np.ndarray, tol:
 
 def thin_walls(part: trimesh.Trimesh, features: Mapping[str, object], min_wall: float,
                spacing: float | None = None, tol: float = 0.05, seed: int = 0,
-               max_candidates: int = 4000, slack: float = SLACK, separate: Iterable[str] = ()) -> list[Wall]:
-    """Every pair of features with a wall thinner than `min_wall` - `slack` (mm) between them,
-    thinnest first.
+               max_candidates: int = 4000, slack: float = SLACK, separate: Iterable[str] = (),
+               limits: Mapping[str, float] | None = None) -> list[Wall]:
+    """Every pair of features with a wall thinner than its limit - `slack` (mm) between them,
+    the largest shortfall first.
+
+    A pair's limit is `min_wall`, or the larger of the two features' own `limits` (mm) where one
+    has one: a heat-set insert's hole asks for the fastener table's insert_min_wall of plastic
+    around it (hw/fasteners.csv), more than the printer's general minimum.
 
     `features` maps a name to a solid (CadQuery shape or watertight trimesh) in the part mesh's
     coordinates. `tol` is how far a sample may be from the part's surface and still be on it: at
@@ -196,9 +202,14 @@ def thin_walls(part: trimesh.Trimesh, features: Mapping[str, object], min_wall: 
     feature (two screws' holes): one that does is a wall of 0 mm where they meet.
     """
     separate = set(separate)
+    limits = dict(limits or {})
     if not (math.isfinite(min_wall) and min_wall > 0):
         raise ValueError(f"min_wall must be a positive number of mm (got {min_wall!r})")
+    for n, v in limits.items():
+        if n not in features or not (math.isfinite(v) and v > 0):
+            raise ValueError(f"wall limit for {n!r} must be a positive number of mm for a named feature (got {v!r})")
     h = spacing or min(min_wall / 4.0, 0.3)
+    widest = max([min_wall, *limits.values()])
     names = list(features)
     meshes = {n: _as_mesh(n, features[n]) for n in names}
     manis = {n: _manifold(m) for n, m in meshes.items()}
@@ -214,15 +225,16 @@ def thin_walls(part: trimesh.Trimesh, features: Mapping[str, object], min_wall: 
     # a hair beyond the part, so an edge feature (which starts at its surface) meets what opens onto it
     box = manifold3d.Manifold.cube(hi - lo + 0.02).translate(lo - 0.01)
     trees = {n: cKDTree(p) for n, p in samples.items() if len(p)}
-    boxes = {n: (p.min(axis=0) - min_wall, p.max(axis=0) + min_wall) for n, p in samples.items() if len(p)}
+    boxes = {n: (p.min(axis=0) - widest, p.max(axis=0) + widest) for n, p in samples.items() if len(p)}
     found: list[Wall] = []
     for i, a in enumerate(names):
         for b in names[i + 1:]:
             pa, pb = samples[a], samples[b]
+            limit = max(min_wall, limits.get(a, 0.0), limits.get(b, 0.0))
             if a in separate or b in separate:
                 meet = _touch(manis[a], manis[b], box)
                 if meet is not None:
-                    found.append(Wall(a, b, 0.0, tuple(map(float, meet)), tuple(map(float, meet))))
+                    found.append(Wall(a, b, 0.0, tuple(map(float, meet)), tuple(map(float, meet)), limit))
                     continue
             if not len(pa) or not len(pb):
                 continue
@@ -230,7 +242,7 @@ def thin_walls(part: trimesh.Trimesh, features: Mapping[str, object], min_wall: 
                 continue  # farther apart than a wall
             swap = len(pa) > len(pb)  # query the smaller set against the larger one's tree
             x, y, px, py = (b, a, pb, pa) if swap else (a, b, pa, pb)
-            dist, idx = trees[y].query(px, distance_upper_bound=min_wall + h)
+            dist, idx = trees[y].query(px, distance_upper_bound=limit + h)
             hit = np.isfinite(dist)
             if not hit.any():
                 continue
@@ -244,19 +256,22 @@ def thin_walls(part: trimesh.Trimesh, features: Mapping[str, object], min_wall: 
             rx, ry = _project(part, meshes[x], meshes[y], p[k], q[k], tol)
             thick = float(np.linalg.norm(ry - rx))
             ra, rb = (ry, rx) if swap else (rx, ry)
-            if thick < min_wall - slack:
-                found.append(Wall(a, b, thick, tuple(map(float, ra)), tuple(map(float, rb))))
-    return sorted(found, key=lambda w: w.thickness)
+            if thick < limit - slack:
+                found.append(Wall(a, b, thick, tuple(map(float, ra)), tuple(map(float, rb)), limit))
+    return sorted(found, key=lambda w: w.thickness - w.limit)
 
 
 def wall_check(part_name: str, part: trimesh.Trimesh, features: Mapping[str, object], min_wall: float,
                parameters: tuple[str, ...] = ("print.min_wall",), **kw) -> Check:
-    """One check: the thinnest wall between any two features, >= `min_wall` (mm)."""
+    """One check: the thinnest wall between any two features, >= `min_wall` (mm), or >= a feature's
+    own limit (`limits`, mm: an insert's wall) for the walls around that feature."""
     walls = thin_walls(part, features, min_wall, **kw)
+    limits = kw.get("limits") or {}
+    own = f", {len(limits)} with their own wall up to {max(limits.values()):g} mm" if limits else ""
     if not walls:
         return make_check("thinnest wall between features", part_name, float(min_wall), True, f">= {min_wall:g}",
-                      "mm", parameters, f"none under {min_wall:g} mm (less {SLACK:g}) among {len(features)} features")
+                          "mm", parameters, f"none under its limit (less {SLACK:g} mm) among {len(features)} features{own}")
     w = walls[0]
     more = f" (+{len(walls) - 1} more thin walls)" if len(walls) > 1 else ""
-    return make_check("thinnest wall between features", part_name, w.thickness, False, f">= {min_wall:g}", "mm",
-                  parameters, w.describe() + more)
+    return make_check("thinnest wall between features", part_name, w.thickness, False, f">= {w.limit:g}", "mm",
+                      parameters, w.describe() + more)

@@ -224,13 +224,14 @@ def awg(diameter_mm: float) -> int:
 
 
 def led_strip(design: Design) -> tuple[float, int, float]:
-    """(channel circumference mm, whole segments that fit, strip length mm) for the LED channel."""
-    circ = 2 * math.pi * (design.cavity_radius + design.mount.led_strip_thickness)
-    segments = math.floor(circ / design.bom.led_cut_pitch)
-    if segments < 1:
-        raise BomError(f"the LED channel (circumference {circ:.1f} mm) is shorter than one strip segment "
-                       f"(bom.led_cut_pitch = {design.bom.led_cut_pitch} mm)")
-    return circ, segments, segments * design.bom.led_cut_pitch
+    """(channel circumference mm, whole segments that fit, strip length mm) for the LED channel
+    (whisker.design.sizing.led_strip, which the CAD draws too)."""
+    from whisker.design import DesignError, sizing
+
+    try:
+        return sizing.led_strip(design)
+    except DesignError as err:
+        raise BomError(str(err)) from None
 
 
 #: ST L298 datasheet, electrical characteristics: quiescent supply current IS <= 70 mA (pin 4, inputs
@@ -246,6 +247,50 @@ def supply_current_A(design: Design) -> float:
     coils = design.whiskers.count * full_scale_voltage(design) / design.coil.resistance
     quiescent = modules_needed(design.whiskers.count) * L298_QUIESCENT_A if design.driver.type == "L298N" else 0.0
     return coils + quiescent
+
+
+# Consumables the build guide (docs/build.md) uses. Estimates, named as such in each row's notes.
+HOOKUP_LENGTH_MM = 300.0     # stranded wire per coil lead, the mount's cable exit to the driver (estimate)
+SOLDER_G_PER_JOINT = 0.05    # 0.5 mm rosin-core solder per small joint (estimate: ~15 mm of wire)
+SAND_G_PER_TIP = 0.1         # fine sand per whisker tip, 10 mm dipped (estimate, with spillage)
+#: Fuse ratings (A), IEC 60127 series (5 x 20 mm glass fuses).
+FUSE_RATINGS_A = (0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3, 8.0, 10.0)
+#: A fuse carries this fraction of its rating at most (IEC 60127 fuses open slowly from ~1.5 x rating;
+#: 0.75 keeps the all-on current clear of nuisance blowing as the fuse warms).
+FUSE_LOAD = 0.75
+
+
+def consumables(d: Design, volumes_mm3: dict[str, float], add) -> None:
+    """The consumables the guide's steps use, with quantities (rows added through `add`)."""
+    n, b = d.whiskers.count, d.bom
+    if RESIN_PARTS[0] in volumes_mm3:
+        ml = n * volumes_mm3[RESIN_PARTS[0]] / 1000.0 * (1 + b.pla_waste)
+        add("resin", "consumable", "MSLA printer resin for the bobbins", _num(max(ml, 0.01), 2), "ml",
+            "standard or tough 405 nm resin, 0.05 mm layers", "any resin vendor",
+            f"{n} bobbins + {b.pla_waste:.0%} waste; the vat needs ~50 ml to print at all, so buy a bottle")
+    add("release_agent", "consumable", "mould release for silicone on PLA", "1", "can",
+        "Ease Release 200 (or a thin petroleum-jelly film)", "Smooth-On", "sprayed on the mould and the lid")
+    add("wax", "consumable", "paraffin wax for the rods' glue ends", "1", "pcs",
+        "a tea light or paraffin block", "any",
+        f"melted over each rod's lowest {d.rod_below_membrane:g} mm before casting, so no silicone film blocks "
+        "the coil's glue joint; scraped off after demoulding")
+    add("sand", "consumable", "fine sand for the whisker tips", _num(n * SAND_G_PER_TIP, 1), "g",
+        "dry quartz sand, 0.1-0.3 mm grain", "craft or aquarium suppliers",
+        f"{n} tips x {SAND_G_PER_TIP:g} g (estimate); gives the tips' friction (mechanics.tip_friction = "
+        f"{d.mechanics.tip_friction:g})")
+    joints = 2 * n + 2 * n + 2  # lead-to-hookup per coil, hookup to resistor/terminal per coil, LED strip
+    add("solder", "consumable", "solder", _num(max(1.0, joints * SOLDER_G_PER_JOINT), 1), "g",
+        "0.5 mm rosin-core, Sn60Pb40 or SAC305", "any",
+        f"{joints} joints x {SOLDER_G_PER_JOINT:g} g (estimate); the enamel strips at ~360 C (solderable wire)")
+    add("hookup_wire", "consumable", "hookup wire, coil leads to the driver", _num(2 * n * HOOKUP_LENGTH_MM / 1000, 1),
+        "m", "26 AWG stranded, two colours", "any", f"2 x {n} leads x {HOOKUP_LENGTH_MM:g} mm (estimate)")
+    add("heat_shrink", "consumable", "heat-shrink sleeve over the lead joints", _num(2 * n), "pcs",
+        "1.5 mm, 10 mm pieces", "any", "one per 0.1 mm lead joint")
+    amps = supply_current_A(d)
+    fuse = next((r for r in FUSE_RATINGS_A if amps <= FUSE_LOAD * r), FUSE_RATINGS_A[-1])
+    add("fuse", "consumable", "fuse in the coil supply's + lead", "1", "pcs",
+        f"{fuse:g} A slow-blow, 5 x 20 mm, in an inline holder", "any",
+        f"all {n} coils fully on draw {amps:.2f} A <= {FUSE_LOAD:.0%} of {fuse:g} A (IEC 60127 series)")
 
 
 def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
@@ -429,6 +474,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         "pockets", "Smooth-On Sil-Poxy; any CA glue", "")
     add("paint", "consumable", "paint: grey membrane top, red coil markers", "1", "set",
         "silicone-compatible grey paint; red paint marker", "any", "")
+    consumables(d, volumes_mm3, add)
 
     rows = [_with_part_number(r, d, fastener_parts.get(r.item)) for r in rows]
     for r in rows:  # one-line fields keep the CSV diffable

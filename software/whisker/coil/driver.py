@@ -171,7 +171,7 @@ def series_resistance_ohm(design) -> float:
     ``drive.max_coil_voltage`` at 100 % duty with the bridge's typical drop (the driver model of
     :func:`whisker.drive.guard.full_scale_voltage`): I = (Vs - V0)/(Rc + Rs + r) <= Vmax/Rc gives
     Rs >= Rc (Vs - V0)/Vmax - Rc - r, rounded up to E24; 0 when the bare bridge already stays within
-    the rating (default design: 7 x 6.1/3.3 - 8.15 = 4.79 -> 5.1 ohm).
+    the rating (default design: 5.872 x 6.1/3.3 - 7.022 = 3.83 -> 3.9 ohm).
     """
     value = design.driver.series_resistance
     if design.driver.type == HAT:

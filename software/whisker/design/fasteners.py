@@ -157,6 +157,13 @@ class Hole:
     diameter: float       # as modelled (the table's value; the printed clearance is not added)
     depth: float | None   # blind depth the hole needs (insert); None = as deep as the screw goes / through
     source: str
+    min_wall: float | None = None  # plastic the hole needs around it (insert: the table's insert_min_wall);
+                                   # None = the printer's general minimum (print.min_wall)
+
+    def wall(self, general: float) -> float:
+        """The thinnest wall allowed around this hole, mm: the larger of the printer's general
+        minimum and the hole's own (a heat-set insert's wall, hw/fasteners.csv insert_min_wall)."""
+        return max(general, self.min_wall or 0.0)
 
 
 def hole(size: str, kind: str, wall: float | None = None, series: ClearanceSeries = "medium",
@@ -179,7 +186,7 @@ def hole(size: str, kind: str, wall: float | None = None, series: ClearanceSerie
     if wall is not None and wall < f.insert_hole_depth:
         raise FastenerError(f"{size} insert ({f.insert_part}, {f.insert_length:g} mm long) needs a "
                             f"{f.insert_hole_depth:g} mm deep hole, the wall is {wall:g} mm")
-    return Hole(size, kind, f.insert_hole, f.insert_hole_depth, f"{f.insert_part} datasheet")
+    return Hole(size, kind, f.insert_hole, f.insert_hole_depth, f"{f.insert_part} datasheet", f.insert_min_wall)
 
 
 def screw_length(size: str, kind: str, clamp: float, engage_max: float | None = None,

@@ -208,6 +208,14 @@ class Design(_Section):
         return hole(f.mount_screw, f.mount_joint).diameter
 
     @property
+    def mounting_hole_wall(self) -> float:
+        """Thinnest wall around the mount's robot-adapter holes, mm: print.min_wall, or the fastener
+        table's insert_min_wall where the joint is a heat-set insert (a hot insert bulges a thinner wall)."""
+        from whisker.design.fasteners import hole
+        f = self.fasteners
+        return hole(f.mount_screw, f.mount_joint).wall(self.print.min_wall)
+
+    @property
     def camera_screw_hole(self) -> float:
         """The mount's camera screw holes as modelled (fasteners.camera_screw / camera_joint), mm."""
         from whisker.design.fasteners import hole

@@ -26,6 +26,11 @@ if TYPE_CHECKING:  # pragma: no cover
 
 # The membrane is a cast part: its size rounds up to half millimetres (a mould maker's step).
 MEMBRANE_STEP_MM = 0.5
+# Fewest sides of an "auto" membrane outline: fewer put the corners far out from the rods (a square's
+# corners are 1.41 x its inscribed radius out). hw/sensor.toml pins the paper's octagon: on the sweep's
+# smallest rings the membrane's side-count check measured one or two sides more than "auto" asked
+# (not yet investigated), so "auto" is what to set for another whisker count, not yet the default.
+MIN_MEMBRANE_SIDES = 5
 # The mount's outer radius rounds up to whole millimetres (a printed body; the sizes stay readable).
 MOUNT_STEP_MM = 1.0
 # Tilts sampled over the swing when finding how far a coil reaches (31 gives < 0.01 mm error).
@@ -208,6 +213,29 @@ def coil_resistance(d: "Design", auto: frozenset = frozenset()) -> float:
 
 # ---- the rules --------------------------------------------------------------------------------
 
+def led_strip(d: "Design") -> tuple[float, int, float]:
+    """(channel circumference mm, whole strip segments that fit, strip length mm) of the LED channel:
+    the strip is bought and cut in whole segments of bom.led_cut_pitch, so it covers
+    segments x pitch of the 2 pi (cavity radius + strip thickness) channel. Raises DesignError
+    when not one segment fits."""
+    circ = 2 * math.pi * (d.cavity_radius + d.mount.led_strip_thickness)
+    segments = math.floor(circ / d.bom.led_cut_pitch)
+    if segments < 1:
+        from whisker.design.validation import DesignError
+        raise DesignError(f"the LED channel (circumference {circ:.1f} mm) is shorter than one strip segment "
+                          f"(bom.led_cut_pitch = {d.bom.led_cut_pitch} mm)")
+    return circ, segments, segments * d.bom.led_cut_pitch
+
+
+def membrane_sides(d: "Design", auto: frozenset = frozenset()) -> int:
+    """The smallest multiple of whiskers.count with at least MIN_MEMBRANE_SIDES sides: the outline
+    then has the ring's symmetry, each rod faces the middle of a flat (shapes.polygon_points puts a
+    flat at +x, whisker 0 at first_angle_deg = 0) and every rod is the same distance from the rim
+    (same membrane stiffness). An octagon for 8 whiskers (the paper), a heptagon for 7."""
+    n = d.whiskers.count
+    return n * math.ceil(MIN_MEMBRANE_SIDES / n)
+
+
 def membrane_inscribed_radius(d: "Design", auto: frozenset = frozenset()) -> float:
     """The seat's opening (membrane inscribed radius - seat ledge) must let every coil pass at rest
     (the membrane goes in from above carrying its rods and coils) and clear, by the print clearance,
@@ -235,13 +263,14 @@ def pour_diameter(d: "Design", auto: frozenset = frozenset()) -> float:
 
 
 def _mounting_hole_needs(d: "Design") -> float:
-    """Smallest bolt-circle radius at which every robot mounting hole keeps print.min_wall from the
+    """Smallest bolt-circle radius at which every robot mounting hole keeps its wall
+    (Design.mounting_hole_wall: print.min_wall, or the insert's wall from hw/fasteners.csv) from the
     camera board pocket, the flat-cable slot and the inner cone, mm."""
     from shapely.geometry import LineString, Point, box
 
     from whisker.design.validation import DesignError
 
-    m, cam, w = d.mount, d.camera, d.print.min_wall
+    m, cam, w = d.mount, d.camera, d.mounting_hole_wall
     if m.mounting_hole_count == 0:
         return 0.0
     lv = mount_levels(d)
@@ -275,17 +304,19 @@ def mount_outer_radius(d: "Design", auto: frozenset = frozenset()) -> float:
     if m.mounting_hole_count:
         bolt = _mounting_hole_needs(d) if "mount.mounting_bolt_radius" in auto else m.mounting_bolt_radius
         holes = bolt + d.mounting_hole_diameter / 2
-    need = max(pocket_outer_radius(d), led_outer_radius(d), seat, board, holes) + w
+    need = max(max(pocket_outer_radius(d), led_outer_radius(d), seat, board) + w,
+               holes + (d.mounting_hole_wall if m.mounting_hole_count else 0.0))
     return ceil_step(need, MOUNT_STEP_MM)
 
 
 def mounting_bolt_radius(d: "Design", auto: frozenset = frozenset()) -> float:
-    """As far out as the outer wall allows (print.min_wall outside each hole), so the holes keep the
+    """As far out as the outer wall allows (the hole's wall outside each hole: print.min_wall, or an
+    insert's wall from hw/fasteners.csv), so the holes keep the
     most material to the camera pocket; rounded down to 0.1 mm. The robot flange's bolts are on
     another plate (whisker.cad.adapter's flange plate), so every flange takes the same mount."""
     m = d.mount
     need = _mounting_hole_needs(d) if m.mounting_hole_count else 0.0
-    out = floor_step(m.outer_radius - d.mounting_hole_diameter / 2 - d.print.min_wall, 0.1)
+    out = floor_step(m.outer_radius - d.mounting_hole_diameter / 2 - d.mounting_hole_wall, 0.1)
     return round(max(need, out), 3)
 
 
@@ -314,6 +345,7 @@ class Rule:
 RULES: tuple[Rule, ...] = (
     Rule("coil", "turns", coil_turns, 1),
     Rule("coil", "resistance", coil_resistance, 1.0),
+    Rule("membrane", "sides", membrane_sides, 8),
     Rule("membrane", "inscribed_radius", membrane_inscribed_radius, 10.0),
     Rule("camera", "distance", camera_distance, 30.0),
     Rule("mold", "pour_diameter", pour_diameter, 1.0),
