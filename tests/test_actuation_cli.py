@@ -60,7 +60,7 @@ def test_grasp_mock_phases():
     assert r.returncode == 0, r.stderr
     for phase in ("retract", "hold", "release", "neutral"):
         assert r.stderr.count(f" {phase} ") == 2
-    assert "peak coil temperature" in r.stderr
+    assert "peak winding temperature" in r.stderr
     # the paper's 3 V as a level of the coil's full scale (the 7.5 V supply behind the auto series
     # resistor: 3.28 V for the wound coil, so 0.915; the 600-turn coil's 3.22 V gave 0.931)
     from whisker.design import default_design

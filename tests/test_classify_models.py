@@ -84,7 +84,8 @@ def test_pairing_table_finds_symmetry_only_where_it_is():
 
 
 def test_cli_train_with_kind(tmp_path):
-    ds = synthetic(n_obj=2, trials=3, poses=4, R=8, W=8)
+    # 5 px prototypes keep every value inside what the design's 11 deg end stop lets a marker move
+    ds = synthetic(n_obj=2, trials=3, poses=4, R=8, W=8, scale_px=5.0)
     write_csv_folder(ds, tmp_path / "data")
     res = run_cli("classify", "train", "--data", str(tmp_path / "data"), "--kind", "svc", "--protocol", "trial",
                   "--out", str(tmp_path / "m.joblib"))

@@ -14,9 +14,9 @@ from whisker.data.dataset import (PEER_REST_PX, DatasetError, augment_rotations,
                              load_tracks, make_dataset, rotate, sense_from_positions, write_csv_folder)
 
 
-def synthetic(n_obj=3, trials=3, poses=6, R=2, W=8, seed=0):
+def synthetic(n_obj=3, trials=3, poses=6, R=2, W=8, seed=0, scale_px=8.0):
     rng = np.random.default_rng(seed)
-    proto = rng.normal(0, 8, (n_obj, R, W, 2))
+    proto = rng.normal(0, scale_px, (n_obj, R, W, 2))
     X, y, t, p = [], [], [], []
     for c in range(n_obj):
         for tr in range(trials):

@@ -73,7 +73,8 @@ def show(design, as_json):
     for sec, vals in data.items():
         click.echo(f"[{sec}]")
         for key, value in vals.items():
-            line = tomli_w.dumps({key: value}).strip()
+            # None: not set in the file, the model's own source applies (e.g. a material table's limit)
+            line = f"# {key} unset" if value is None else tomli_w.dumps({key: value}).strip()
             src = sources[f"{sec}.{key}"]
             unit = field_unit(design, sec, key)
             click.echo(f"{line:<40} # {unit + '; ' if unit else ''}{src}")
