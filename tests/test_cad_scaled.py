@@ -111,7 +111,8 @@ def test_closed_form_bounds_refuse_before_any_solid(tmp_path):
     res = subprocess.run([sys.executable, "-c", probe, str(tmp_path / "out")], capture_output=True, text=True)
     code, cq, build = res.stdout.split("\n")[0].split()
     assert (code, cq, build) == ("1", "False", "False"), res.stdout + res.stderr   # refused, no CAD kernel loaded
-    assert "crowding" in res.stdout and "13.47" in res.stdout
+    bound = sizing.crowding_bound_radius(default_design(), 16)   # the bound the message must quote, mm
+    assert "crowding" in res.stdout and f"{bound:.2f}" in res.stdout
     assert refusals(default_design()) == []
     for n in range(2, 17):
         r = math.ceil(sizing.crowding_bound_radius(default_design(), n) + 1e-9)
