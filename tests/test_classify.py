@@ -138,7 +138,7 @@ def test_confusion_plot(tmp_path):
 
 # -- the command line ----------------------------------------------------------------------------------------
 def test_cli_train_predict_evaluate(tmp_path):
-    ds = synthetic(n_obj=3, trials=3, poses=6, R=8, W=8)
+    ds = synthetic(n_obj=3, trials=3, poses=6, R=8, W=8, scale_px=5.0)  # inside the 11 deg stop's marker travel
     write_csv_folder(ds, tmp_path / "data")
     model = tmp_path / "m.joblib"
     res = run_cli("classify", "train", "--data", str(tmp_path / "data"), "--protocol", "random", "--epochs", "30",
