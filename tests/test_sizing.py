@@ -122,7 +122,8 @@ def test_design_show_marks_file_and_rule_values(tmp_path):
     res = run_cli("design", "show", "--set", "whiskers.ring_radius=20", "--set", "mount.outer_radius=30")
     assert res.returncode == 0, res.stderr
     lines = {ln.split("=")[0].strip(): ln for ln in res.stdout.splitlines() if "=" in ln and not ln.startswith("#")}
-    assert "# rule: " in lines["inscribed_radius"] and "# file" in lines["outer_radius"]
+    # each line ends "# <unit>; <source>" (design show prints the unit first)
+    assert "; rule: " in lines["inscribed_radius"] and lines["outer_radius"].rstrip().endswith("; file")
     res = run_cli("design", "show", "--json")
     data = json.loads(res.stdout)
     assert data["sources"]["whiskers.count"] == "file"
