@@ -185,7 +185,9 @@ def test_core_runs_the_sensor_commands_from_outside_the_checkout(core, tmp_path)
     items = doctor(res.stdout)
     status = {item: st for item, (st, _) in items.items()}
     lines = {item: detail for item, (_, detail) in items.items()}
+    kicad = status.pop("kicad", None)   # information only (the HAT's board tools), never a reason to fix
     assert status == {"design": "ok", "extras": "ok", "camera": "FIX", "gpio": "ok", "coil state": "ok"}, res.stdout
+    assert kicad in (None, "ok", "info"), res.stdout
     assert res.returncode == 1, "no camera on the test machine: doctor must not say all is well"
     assert str(whisker.parents[1]) in lines["design"], "doctor's design is not the wheel's"
     assert "core only; not installed: " in lines["extras"] and "pip install 'whisker-array[cad]'" in lines["extras"]
