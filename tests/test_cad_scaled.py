@@ -134,7 +134,11 @@ def test_only_physical_conflicts_refuse(count, radius, coil_length, coil_dia, de
     except DesignError as err:
         assert "\n" not in str(err)
         return
-    results = evaluate(d)
+    try:
+        results = evaluate(d)
+    except DesignError as err:   # a relation the solids need (the end stop's flange against the magnet): one line
+        assert "\n" not in str(err) and "actuation." in str(err)
+        return
     for c in results:
         if isinstance(c.value, float):
             assert math.isfinite(c.value) or not c.ok, c.line()
