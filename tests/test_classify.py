@@ -157,7 +157,7 @@ def test_cli_train_predict_evaluate(tmp_path):
     (tmp_path / "short.csv").write_text(",".join(rows[0].split(",")[:100]) + "\n")
     res = run_cli("classify", "predict", "--model", str(model), "--input", str(tmp_path / "short.csv"))
     assert res.returncode == 2 and "100 features per sample, expected 128" in res.stderr
-    tracks = write_tracks(tmp_path / "t.csv", frames=8, invalid={(3, 2)})
+    tracks = write_tracks(tmp_path / "t.csv", frames=8, invalid={(3, 2)}, step_px=0.4)  # inside the stop's travel
     res = run_cli("classify", "predict", "--model", str(model), "--input", str(tracks), "--tracks")
     assert res.returncode == 2 and "whisker 2 invalid or missing at frame 3" in res.stderr
     res = run_cli("classify", "predict", "--model", str(model), "--input", str(tracks), "--tracks", "--invalid", "zero")

@@ -125,7 +125,7 @@ def test_csv_folder_refusals(tmp_path):
 
 
 # -- tracks loader -------------------------------------------------------------------------------------------
-def write_tracks(path, frames=4, W=8, sense=1, invalid=()):
+def write_tracks(path, frames=4, W=8, sense=1, invalid=(), step_px=0.5):
     """A tracks CSV in `whisker track`'s own format (its header; an untracked marker's numbers empty)."""
     from whisker.vision.trackfile import CSV_HEADER
 
@@ -135,7 +135,7 @@ def write_tracks(path, frames=4, W=8, sense=1, invalid=()):
     for f in range(frames):
         for w in range(W):
             ok = (f, w) not in invalid
-            dx, dy = (f + 1) * 0.5 * (w + 1), -f * 0.25
+            dx, dy = (f + 1) * step_px * (w + 1), -f * 0.25
             row = {"frame": f, "time_s": f"{f / 30:.4f}", "whisker": w, "x_px": f"{pos[w, 0] + dx:.3f}",
                    "y_px": f"{pos[w, 1] + dy:.3f}", "dx_px": dx, "dy_px": dy, "valid": 1, "status": "ok",
                    "theta_deg": 0.1, "tip_x_mm": 0, "tip_y_mm": 0, "tip_z_mm": 20}
