@@ -19,7 +19,7 @@ from whisker.data import provenance as P
     not os.environ.get("WHISKER_DOCS_CURRENT"),
     reason="the committed figures and tables predate this release's model changes (membrane stiffness from the "
            "FE model, end stop, thermal network, mount 24 mm) and have not been regenerated yet: `make docs` on an "
-           "idle machine, then set WHISKER_DOCS_CURRENT=1 (`make docs-check` does) -- the regeneration is an open "
+           "idle machine, then run this test with WHISKER_DOCS_CURRENT=1 (`make docs-check` runs the same check) -- the regeneration is an open "
            "item of issue 30")
 def test_every_generated_file_is_current():
     bad = P.problems(expected=P.generated_files())
