@@ -27,7 +27,8 @@ from whisker.design.stop import stop_tilt_rad
 from whisker.mechanics.membrane import design_stiffness_Nmm_per_rad
 from whisker.design.wire import (ALPHA20_PER_K, COPPER_DENSITY_G_CM3, COPPER_SPECIFIC_HEAT, ENAMEL_DENSITY_G_CM3,  # noqa: F401
                                  ENAMEL_SPECIFIC_HEAT, ORTHOCYCLIC_PACKING, RHO20_OHM_MM2_PER_M, CoilError, _build,
-                                 _positive, enamel_overall_diameter_mm, ohm_per_m, temperature_factor, wire_length_mm)
+                                 _positive, enamel_overall_diameter_mm, ohm_per_m, temperature_factor, turns_per_layer,
+                                 wire_length_mm)
 
 class SnapThrough(CoilError):
     """No stable whisker equilibrium: the coil is pulled in until it meets the magnet (or its stop)."""
@@ -82,9 +83,7 @@ def winding(design) -> Winding:
     fill_ortho = ORTHOCYCLIC_PACKING * (d / do) ** 2
     max_fill = int(math.floor(w.fill_factor * window / a_cu + 1e-9))
     max_ortho = int(math.floor(fill_ortho * window / a_cu + 1e-9))
-    tpl = int(math.floor(L / do))
-    if tpl < 1:
-        raise CoilError(f"coil.length {L} mm is shorter than one enamelled wire ({do:.3f} mm)")
+    tpl = turns_per_layer(L, do)
     layers = int(math.ceil(c.turns / tpl))
     build = _build(c.turns, d, w.fill_factor, L)
     mean_r = a1 + build / 2.0

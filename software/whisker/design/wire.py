@@ -73,14 +73,21 @@ def wire_length_mm(inner_radius_mm: float, turns: float, wire_d: float, fill: fl
     return turns * (2.0 * math.pi * (inner_radius_mm + build / 2.0))
 
 
+def turns_per_layer(length_mm: float, overall_diameter_mm: float) -> int:
+    """Enamelled turns side by side on a former of `length_mm`; refuses a former shorter than one wire."""
+    tpl = int(math.floor(length_mm / overall_diameter_mm))
+    if tpl < 1:
+        raise CoilError(f"coil.length {length_mm} mm is shorter than one enamelled wire ({overall_diameter_mm:.3f} mm)")
+    return tpl
+
+
 def max_turns_at_fill(design) -> int:
     """Turns of the design's wire that fit the former's window at winding.fill_factor."""
     from whisker.design.former import window
 
     a1, a2, L = window(design)
     d = design.coil.wire_diameter
-    if int(math.floor(L / enamel_overall_diameter_mm(d, design.winding.enamel_grade))) < 1:
-        raise CoilError(f"coil.length {L} mm is shorter than one enamelled wire")
+    turns_per_layer(L, enamel_overall_diameter_mm(d, design.winding.enamel_grade))
     a_cu = math.pi * d * d / 4.0
     window_mm2 = (a2 - a1) * L
     return int(math.floor(design.winding.fill_factor * window_mm2 / a_cu + 1e-9))
@@ -92,6 +99,5 @@ def resistance_20C_ohm(design) -> float:
 
     a1, _, L = window(design)
     c, w = design.coil, design.winding
-    if int(math.floor(L / enamel_overall_diameter_mm(c.wire_diameter, w.enamel_grade))) < 1:
-        raise CoilError(f"coil.length {L} mm is shorter than one enamelled wire")
+    turns_per_layer(L, enamel_overall_diameter_mm(c.wire_diameter, w.enamel_grade))
     return ohm_per_m(c.wire_diameter) * wire_length_mm(a1, c.turns, c.wire_diameter, w.fill_factor, L) / 1000.0
