@@ -81,43 +81,53 @@ def grasp_attempt(scene, design, obj, active, rng=None, *, keep=False, release=F
     return Attempt(obj.name, len(active), ok, lift, res if keep else None)
 
 
-def grasp_table(scene: Scene, design, progress=None) -> dict:
+def _attempt_outcome(scene, design, obj, cfg, body, placement) -> tuple[bool, float]:
+    a = grasp_attempt(scene, design, obj, cfg, body=body, placement=placement)
+    return a.success, a.lift_mm
+
+
+def grasp_table(scene: Scene, design, progress=None, n_jobs: int = 1) -> dict:
     """Success rate (%) per object and configuration, with the paper's numbers beside them.
 
     Every configuration of an object sees the same placements (common random numbers), so the
-    differences between the columns come from the configurations, not from different draws.
+    differences between the columns come from the configurations, not from different draws. The
+    placements are drawn first (seeded per object), then the attempts run over `n_jobs` joblib
+    worker processes (each attempt is its own MuJoCo model): the table is the same for any `n_jobs`.
     """
+    from joblib import Parallel, delayed
+
     from whisker.coil.kinematics import whisker_body
 
     e = scene.experiment
     objs = experiment_objects(scene)
     if not objs:
         raise SceneError("grasp experiment: the scene has no objects")
+    if n_jobs < 1:
+        raise ValueError(f"grasp table: n_jobs must be >= 1 (got {n_jobs})")
     cfgs = configurations(scene, design)
     body = whisker_body(design)
-    rates: dict[str, list[float]] = {}
-    lifts: dict[str, list[list[float]]] = {}
-    held: dict[str, list[list[bool]]] = {}
-    total = len(objs) * len(cfgs) * e.attempts
-    done = 0
+    jobs = []
     for oi, o in enumerate(objs):
-        rates[o.name] = []
-        lifts[o.name] = []
-        held[o.name] = []
         rng = np.random.default_rng([scene.scene.seed, oi])
         places = [draw_placement(scene, design, rng) for _ in range(e.attempts)]
-        for cfg in cfgs:
-            ok = []
-            ls = []
-            for pl in places:
-                a = grasp_attempt(scene, design, o, cfg, body=body, placement=pl)
-                ok.append(a.success)
-                ls.append(a.lift_mm)
-                done += 1
-                if progress:
-                    progress(done / total)
+        jobs += [(oi, ci, o, cfg, pl) for ci, cfg in enumerate(cfgs) for pl in places]
+    total = len(jobs)
+    out = []
+    run = Parallel(n_jobs=n_jobs, return_as="generator")(
+        delayed(_attempt_outcome)(scene, design, o, cfg, body, pl) for _, _, o, cfg, pl in jobs)
+    for k, res in enumerate(run):
+        out.append(res)
+        if progress:
+            progress((k + 1) / total)
+    rates: dict[str, list[float]] = {o.name: [] for o in objs}
+    lifts: dict[str, list[list[float]]] = {o.name: [] for o in objs}
+    held: dict[str, list[list[bool]]] = {o.name: [] for o in objs}
+    for oi, o in enumerate(objs):
+        for ci in range(len(cfgs)):
+            rows = [r for (a, c, *_), r in zip(jobs, out) if a == oi and c == ci]
+            ok = [r[0] for r in rows]
             rates[o.name].append(100.0 * float(np.mean(ok)))
-            lifts[o.name].append(ls)
+            lifts[o.name].append([r[1] for r in rows])
             held[o.name].append(ok)
     totals = [float(np.mean([rates[o.name][c] for o in objs])) for c in range(len(cfgs))]
     n = e.attempts
@@ -370,12 +380,13 @@ def dataset_csv(rows: np.ndarray) -> str:
     return "".join(",".join(str(int(v)) for v in r) + "\n" for r in rows)
 
 
-def run(kind: str, scene: Scene, design, files: dict, progress=None) -> dict:
-    """Run a contact experiment, add its files to `files`, return summary entries."""
+def run(kind: str, scene: Scene, design, files: dict, progress=None, jobs: int = 1) -> dict:
+    """Run a contact experiment, add its files to `files`, return summary entries (`jobs`: joblib
+    worker processes for the grasp table)."""
     from whisker.sim.run import png_bytes
 
     if kind == "grasp":
-        tab = grasp_table(scene, design, progress)
+        tab = grasp_table(scene, design, progress, n_jobs=jobs)
         files["grasp_table.md"] = grasp_markdown(tab)
         files["grasp_table.csv"] = grasp_csv(tab)
         order = {n: bool(o["strict"]) for n, o in tab["order"].items()}
