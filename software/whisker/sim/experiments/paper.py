@@ -134,8 +134,33 @@ def grasp_table(scene: Scene, design, progress=None, n_jobs: int = 1) -> dict:
     ci95 = {name: [wilson_interval(round(v / 100 * n), n) for v in r] for name, r in rates.items()}
     paired = {name: paired_comparisons(h) for name, h in held.items()}
     return {"configurations": cfgs, "rates": rates, "ci95": ci95, "totals": totals, "attempts": n,
+            "tip_force": tip_pressing_mN(design),
             "objects": {o.name: o.mass for o in objs}, "lifts_mm": lifts, "paired": paired,
             "order": {name: grasp_order(r, ci95[name], paired[name]) for name, r in rates.items()}}
+
+
+def tip_pressing_mN(design, tilts_deg=(0.0, 4.0, 8.0), facing: str = "down") -> dict:
+    """The force (mN) with which a tip blocked at each tilt (deg, radial) presses the object at the
+    grasp level (coil at 20 C): the net closing torque, the coil's pull at that tilt's gap minus the
+    membrane spring (and the whisker's weight), tau = tau_mag(I, theta) + tau_grav(theta) - k theta
+    (whisker.coil.kinematics), over the pivot-to-tip lever. Also the free tilt (deg) and whether it
+    is the end stop (the whisker pulled in onto it: there the net torque loads the stop, not an object)."""
+    from whisker.coil.kinematics import gravity_torque, magnetic_torque, static_equilibrium, whisker_body
+    from whisker.sim.contract import current_A, full_scale_voltage
+
+    body = whisker_body(design)
+    I = float(current_A(design, grasp_level(design) * full_scale_voltage(design)))
+    eq = static_equilibrium(design, body, np.array([I]), facing=facing)
+    out = {}
+    for deg in tilts_deg:
+        th = math.radians(deg)
+        tau = float(magnetic_torque(design, body, th, I)) + float(gravity_torque(body, th, facing)) - body.stiffness * th
+        out[float(deg)] = 1e3 * tau / body.tip_m                     # N m / m -> mN
+    return {"force_mN": out, "free_tilt_deg": float(np.degrees(eq.theta_rad[0])),
+            "at_stop": bool(eq.at_stop[0]), "stop_deg": float(np.degrees(body.stop_rad)),
+            "at_stop_mN": 1e3 * (float(magnetic_torque(design, body, body.stop_rad, I))
+                                 + float(gravity_torque(body, body.stop_rad, facing))
+                                 - body.stiffness * body.stop_rad) / body.tip_m}
 
 
 def paired_comparisons(held: list[list[bool]]) -> list[dict]:
@@ -208,7 +233,18 @@ def grasp_markdown(tab: dict) -> str:
         f"\n\n{tab['attempts']} simulated attempts per cell (sim %, Wilson 95 % interval) beside the paper's 20 "
         "(paper %). Every configuration sees the same placements; 'wins-losses': attempts the larger "
         "configuration holds and the smaller drops, and the reverse; p: exact one-sided McNemar test. "
-        "'resolved': strictly ordered and every p < 0.05.\n")
+        "'resolved': strictly ordered and every p < 0.05." + _force_line(tab) + "\n")
+
+
+def _force_line(tab: dict) -> str:
+    f = tab.get("tip_force")
+    if not f:
+        return ""
+    at = ", ".join(f"{v:.2f} mN at {k:g} deg" for k, v in f["force_mN"].items())
+    free = (f"the free whisker pulls in onto the {f['stop_deg']:g} deg end stop (pressing it with {f['at_stop_mN']:.2f} mN "
+            "at the tip's lever)" if f["at_stop"] else f"the free whisker closes to {f['free_tilt_deg']:.1f} deg")
+    return (f" Each tip that meets an object presses it with {at} of tilt (the coil's pull at that gap minus "
+            f"the membrane spring, over the pivot-to-tip lever, coil at 20 C); {free}.")
 
 
 def grasp_csv(tab: dict) -> str:
