@@ -134,7 +134,7 @@ docs-tracking: $(BIN)/.installed
 		docs/tracking_real.md
 
 docs-parts: $(BIN)/.installed
-	$(BIN)/whisker print preview --build $(OUT) --images docs/images/parts
+	$(BIN)/whisker print preview --build $(DOCS_RUNS)/build --images docs/images/parts
 	$(STAMP) --command "whisker print preview --images docs/images/parts" docs/images/parts/*.png
 
 docs-assembly: $(BIN)/.installed
