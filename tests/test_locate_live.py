@@ -83,3 +83,28 @@ def test_cli_live_locate_refusals():
     assert res.returncode == 2 and "thermal guard" in res.stderr
     res = run_cli("live", "--source", "sim", "--sweep-level", "0.5")
     assert res.returncode == 2 and "go with --locate" in res.stderr
+
+
+def test_closed_loop_grasp_reports_where_the_object_sits():
+    """One simulated closed-loop grasp with locate: per holding whisker the estimated distance along
+    the rod (locate sweep on the membrane + beam model at MuJoCo's true contact) and the truth."""
+    pytest.importorskip("mujoco", reason="the grasp scene needs the simulator extra (pip install -e '.[sim]')")
+    from pathlib import Path
+
+    from whisker.sim import load_scene, scene_design
+    from whisker.sim.experiments import grasp_locate
+    from whisker.sim.experiments.grasp_closed import closed_loop_table
+    from whisker.sim.experiments.paper import configurations
+
+    scene = load_scene(Path(grasp_locate.__file__).resolve().parents[1] / "scenes" / "grasp.toml")
+    design = scene_design(scene)
+    noise = np.random.default_rng(0).normal(0.0, 7e-5, (200, 2))        # ~ the fit tracker's tilt error, rad
+    tab = closed_loop_table(scene, design, attempts=1, configs=[c for c in configurations(scene, design) if len(c) == 8],
+                            objects=["paper flower"], locate_noise=noise)
+    closed = [r for r in tab["runs"] if r["mode"] == "closed"][0]
+    assert [r["locate"] for r in tab["runs"] if r["mode"] == "open"] == [""]
+    cells = closed["locate"].split("; ")
+    assert closed["success"] and len(cells) >= 4, closed
+    for cell in cells:                                        # "w3 62.5+-1.3 (63.0)"
+        est, truth = float(cell.split()[1].split("+-")[0]), float(cell.split("(")[1].rstrip(")"))
+        assert abs(est - truth) < 5.0, cell

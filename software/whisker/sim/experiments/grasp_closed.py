@@ -43,10 +43,12 @@ def _wilcoxon(x, y) -> float:
 
 
 def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, configs=None, objects=None,
-                      progress=None, params: dict | None = None, open_guard: bool = True) -> dict:
+                      progress=None, params: dict | None = None, open_guard: bool = True, locate_noise=None) -> dict:
     """See the module doc. `open_guard` (default): the open loop's levels pass through the same thermal
     guard as the closed loop's, as on the hardware, whose actuator always applies one; False: the bare
-    paper protocol (a simulator-only reference)."""
+    paper protocol (a simulator-only reference). `locate_noise`: a tracker tilt-error bank (rad, (F, 2));
+    when given, every closed-loop run reports where the object sits along the holding whiskers at the
+    grip (whisker.sim.experiments.grasp_locate; run column "locate")."""
     from whisker.sensing.grasp_control import GraspController
     from whisker.drive.guard import ThermalGuard
     from whisker.coil.kinematics import whisker_body
@@ -80,7 +82,12 @@ def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, config
                            if mode == "open" else
                            GraspController(n, cfg, rig.params(**(params or {})), expected,
                                            guard=ThermalGuard(design, clock=lambda: 0.0)))
-                    r = run_grasp(rig, ctl, hold_height_mm=hold)
+                    hook = None
+                    if locate_noise is not None and mode == "closed":
+                        from whisker.sim.experiments.grasp_locate import GripLocator
+
+                        hook = GripLocator(design, locate_noise, seed=k)
+                    r = run_grasp(rig, ctl, hold_height_mm=hold, on_frame=hook)
                     res[mode].append(r)
                     runs.append({"object": o.name, "whiskers": len(cfg), "placement": k, "mode": mode,
                                  "success": r.success, "lift_mm": round(r.lift_mm, 2), "energy_J": round(r.energy_J, 4),
@@ -88,6 +95,10 @@ def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, config
                                  "time_to_grip_s": None if r.time_to_grip_s is None else round(r.time_to_grip_s, 3),
                                  "outcome": r.outcome, "frames": r.frames,
                                  "process_ms_mean": round(float(np.mean(r.process_ms)), 3)})
+                    if locate_noise is not None:
+                        from whisker.sim.experiments.grasp_locate import summary
+
+                        runs[-1]["locate"] = summary(hook.rows()) if hook is not None else ""
                 done += 1
                 if progress:
                     progress(done / total)
