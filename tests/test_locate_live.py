@@ -108,3 +108,12 @@ def test_closed_loop_grasp_reports_where_the_object_sits():
     for cell in cells:                                        # "w3 62.5+-1.3 (63.0)"
         est, truth = float(cell.split()[1].split("+-")[0]), float(cell.split("(")[1].rstrip(")"))
         assert abs(est - truth) < 5.0, cell
+
+
+def test_cli_closedloop_locate_is_for_the_simulator(tmp_path):
+    from click.testing import CliRunner
+
+    from whisker.cli import main
+
+    r = CliRunner().invoke(main, ["closedloop", "--backend", "mock", "--locate", "--source", str(tmp_path)])
+    assert r.exit_code == 2 and "--locate is for --backend sim" in r.output
