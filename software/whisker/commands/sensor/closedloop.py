@@ -14,7 +14,7 @@ from whisker.commands.sensor.actuate import config_options
 DEFAULT_SCENE = Path(__file__).resolve().parents[1] / "sim" / "scenes" / "grasp.toml"
 
 #: options that only the simulated comparison reads, and those only a hardware run reads
-SIM_ONLY = ("scene_path", "attempts", "objects", "counts", "out", "open_guard", "locate")
+SIM_ONLY = ("scene_path", "attempts", "objects", "counts", "out", "open_guard", "jobs", "locate")
 HW_ONLY = ("source", "which", "start", "policy", "out_log", "rest_frames", "max_frames", "track_method",
            "calibration", "mask", "descend_mm", "descend_s", "lift_mm", "lift_s", "hold_s", "arm", "design_file",
            "overrides", "watchdog_s")
@@ -83,9 +83,12 @@ HW_ONLY = ("source", "which", "start", "policy", "out_log", "rest_frames", "max_
 @click.option("--watchdog-s", type=click.FloatRange(0.05, 60), default=None,
               help="[hardware] Coils off after this many seconds without a frame (default: 2.5 frame periods "
                    "for a live camera, 5 s for a file).")
+@click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
+              help="[sim] Worker processes (joblib) for the attempts; the table is the same for any count.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar / prompts.")
 @click.pass_context
-def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guard, early_contact, quiet, locate, **hw):
+def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guard, early_contact, jobs, quiet, locate,
+        **hw):
     """Closed-loop grasps: grip on contact, lowest holding level, slip re-grip, fail safe.
 
     \b
@@ -112,7 +115,7 @@ def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guar
         if extra:
             fail(f"closedloop: --{extra[0].replace('out_log', 'log').replace('_', '-').replace('which', 'config')} "
                  "is for --backend mock or gpio (the simulator takes the design and frames from --scene)")
-        return run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard, locate)
+        return run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard, jobs, locate)
     extra = sorted(given & set(SIM_ONLY))
     if extra:
         name = (extra[0].replace('scene_path', 'scene').replace('counts', 'whiskers')
@@ -123,7 +126,7 @@ def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guar
     sys.exit(run_hardware(backend, fps, fps_given, early_contact, quiet, **hw))
 
 
-def run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard=True, locate=False):
+def run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard=True, jobs=1, locate=False):
     import numpy as np
     from tqdm import tqdm
 
@@ -154,7 +157,7 @@ def run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quie
             noise = noise - noise.mean(axis=0)
         tab = closed_loop_table(scene, design, attempts=attempts, fps=fps, configs=cfgs, objects=list(objects) or None,
                                 progress=progress, params={"early_contact": early_contact}, open_guard=open_guard,
-                                locate_noise=noise)
+                                n_jobs=jobs, locate_noise=noise)
         bar.close()
     except (SceneError, ValueError) as err:
         fail(f"closedloop: {err}")
