@@ -2,7 +2,7 @@
 
 Readers: scene TOML (whisker.sim.load_scene), recording sessions (whisker.data.recording.load_session),
 datasets (whisker.data.dataset.load_csv_folder), classifier models (whisker.data.classify.load_model) and lens
-calibration files (whisker.vision.tracking.load_calibration). Mutations of a valid file: truncation, byte
+calibration files (whisker.vision.markers.load_calibration). Mutations of a valid file: truncation, byte
 flips, wrong columns (a header renamed or a column dropped), and numbers replaced by NaN, inf or
 1e308. For every mutant:
 
@@ -230,7 +230,7 @@ def test_model_file(valid, data):
 @FUZZ
 @given(data=st.data())
 def test_calibration_file(valid, data):
-    from whisker.vision.tracking import load_calibration
+    from whisker.vision.markers import load_calibration
 
     kind, fn = data.draw(mutation((valid / "calib.npz").stat().st_size, text=False))
     c = mutate_copy(valid / "calib.npz", "", fn)
