@@ -28,14 +28,14 @@ DOCS_BENCH_FILES_actuation = actuation.md actuation_guard.csv actuation_guard.pn
 DOCS_BENCH_FILES_bom = bom.md bom.csv
 DOCS_BENCH_FILES_cad = cad.md cad_tessellation.csv cad_tessellation.png
 DOCS_BENCH_FILES_classify = classify.md classify.csv classify.png classify_beyond.csv classify_confusion.json classify_models.csv \
-	classify_pairing.csv classify_protocols.csv classify_sim.csv docs/images/confusion_*.png
+	classify_pairing.csv classify_protocols.csv classify_sim.csv classify_trials.csv docs/images/confusion_*.png
 DOCS_BENCH_FILES_coil = coil.md coil.csv
 DOCS_BENCH_FILES_compliant = sim_compliant.md sim_compliant.csv
 DOCS_BENCH_FILES_driver = driver.md driver.csv
 DOCS_BENCH_FILES_explore = explore.md
 DOCS_BENCH_FILES_grip = sim_grip.md
 DOCS_BENCH_FILES_locate = locate.md locate.csv locate_tradeoff.csv locate.png
-DOCS_BENCH_FILES_locate_noise = locate_noise.md
+DOCS_BENCH_FILES_locate_noise = locate_noise.md locate_noise.csv locate_noise.png
 DOCS_BENCH_FILES_magnetics = magnetics.md magnetics.csv magnetics.png
 DOCS_BENCH_FILES_membrane = membrane.md membrane.csv
 DOCS_BENCH_FILES_print = print.md print.csv
