@@ -275,15 +275,16 @@ def trial_ceiling(peer):
         models[name + " + RBF SVM"] = (lambda f=f: make_pipeline(FunctionTransformer(f), StandardScaler(),
                                                                   SVC(C=10.0, gamma="scale")))
     odd_rows, probs = [], []
+    F = peer.features()
     for name, make in models.items():
         m = make()
         C.fit_quiet(m, rest.features(), rest.y)
         row = {"model (trained on the other 48 trials)": name}
         for o, t in odd:
             k = (peer.y == o) & (peer.trial == t)
-            row[f"{o} trial {t} %"] = 100 * float(np.mean(m.predict(peer.X[k]) == o))
+            row[f"{o} trial {t} %"] = 100 * float(np.mean(m.predict(F[k]) == o))
         if name in ("polar features + RBF SVM", "polar features + extra trees", "MLP 128, 40 epochs"):
-            probs.append({(o, t): m.predict_proba(peer.X[(peer.y == o) & (peer.trial == t)]) for o, t in odd})
+            probs.append({(o, t): m.predict_proba(F[(peer.y == o) & (peer.trial == t)]) for o, t in odd})
             classes = np.asarray(m.classes_)
         odd_rows.append(row)
     vote = {"model (trained on the other 48 trials)": "soft vote: SVM + extra trees + MLP 128"}
