@@ -42,8 +42,11 @@ def _wilcoxon(x, y) -> float:
     return float(wilcoxon(x, y, zero_method="zsplit").pvalue)
 
 
-def _one_grasp(scene, design, obj, cfg, placement, k: int, mode: str, fps: float, body, params, open_guard: bool):
-    """One attempt of `mode` ("open" or "closed") at `placement` (seed k): a GraspRun."""
+def _one_grasp(scene, design, obj, cfg, placement, k: int, mode: str, fps: float, body, params, open_guard: bool,
+               locate_noise=None):
+    """One attempt of `mode` ("open" or "closed") at `placement` (seed k): a GraspRun. With
+    `locate_noise`, a closed-loop run carries `locate`: where the object sits along the holding whiskers
+    at the grip (whisker.sim.experiments.grasp_locate)."""
     from whisker.drive.guard import ThermalGuard
     from whisker.sensing.grasp_control import GraspController
 
@@ -54,17 +57,29 @@ def _one_grasp(scene, design, obj, cfg, placement, k: int, mode: str, fps: float
            if mode == "open" else
            GraspController(n, cfg, rig.params(**(params or {})), free_closing_px(design),
                            guard=ThermalGuard(design, clock=lambda: 0.0)))
-    r = run_grasp(rig, ctl, hold_height_mm=scene.experiment.hold_height)
+    hook = None
+    if locate_noise is not None and mode == "closed":
+        from whisker.sim.experiments.grasp_locate import GripLocator
+
+        hook = GripLocator(design, locate_noise, seed=k)
+    r = run_grasp(rig, ctl, hold_height_mm=scene.experiment.hold_height, on_frame=hook)
+    if hook is not None:
+        from whisker.sim.experiments.grasp_locate import summary
+
+        r.locate = summary(hook.rows())
     r.process_ms = [float(np.mean(r.process_ms))] if r.process_ms else []     # the mean is all the table keeps
     return r
 
 
 def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, configs=None, objects=None,
-                      progress=None, params: dict | None = None, open_guard: bool = True, n_jobs: int = 1) -> dict:
+                      progress=None, params: dict | None = None, open_guard: bool = True, n_jobs: int = 1,
+                      locate_noise=None) -> dict:
     """See the module doc. `open_guard` (default): the open loop's levels pass through the same thermal
     guard as the closed loop's, as on the hardware, whose actuator always applies one; False: the bare
     paper protocol (a simulator-only reference). `n_jobs`: joblib worker processes for the attempts
-    (every attempt runs on simulated time, so the table is the same for any count)."""
+    (every attempt runs on simulated time, so the table is the same for any count). `locate_noise`: a
+    tracker tilt-error bank (rad, (F, 2)); when given, every run gets a column "locate": for closed-loop
+    runs where the object sits along the holding whiskers at the grip (whisker.sim.experiments.grasp_locate)."""
     from joblib import Parallel, delayed
 
     from whisker.coil.kinematics import whisker_body
@@ -88,7 +103,7 @@ def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, config
     jobs = [(o, cfg, pl, k, mode) for o, cfg, places in cells for k, pl in enumerate(places) for mode in ("open", "closed")]
     results = []
     gen = Parallel(n_jobs=n_jobs, return_as="generator")(
-        delayed(_one_grasp)(scene, design, o, cfg, pl, k, mode, fps, body, params, open_guard)
+        delayed(_one_grasp)(scene, design, o, cfg, pl, k, mode, fps, body, params, open_guard, locate_noise)
         for o, cfg, pl, k, mode in jobs)
     for j, r in enumerate(gen):
         results.append(r)
@@ -107,6 +122,8 @@ def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, config
                              "time_to_grip_s": None if r.time_to_grip_s is None else round(r.time_to_grip_s, 3),
                              "outcome": r.outcome, "frames": r.frames,
                              "process_ms_mean": round(float(np.mean(r.process_ms)), 3) if r.process_ms else 0.0})
+                if locate_noise is not None:
+                    runs[-1]["locate"] = getattr(r, "locate", "")
         so = [r.success for r in res["open"]]
         sc = [r.success for r in res["closed"]]
         w, l, p = _mcnemar(so, sc)
@@ -174,7 +191,24 @@ def closed_loop_markdown(tab: dict) -> str:
     out.append(f"| **all** | | {100 * so / nt:.0f} / {100 * sc / nt:.0f} / | | {eo / nt:.2f} / {ec / nt:.2f} | "
                f"{_fmt_e(eo / so if so else math.inf)} / {_fmt_e(ec / sc if sc else math.inf)} | | | "
                f"{sum(r['aborts'] for r in tab['rows'])} |")
-    return "\n".join(out) + "\n"
+    return "\n".join(out) + "\n" + _totals_by_count(tab["rows"])
+
+
+def _totals_by_count(rows) -> str:
+    """Success per whisker count over the objects (the mean of the objects' rates, as the paper's
+    totals), open / closed, beside the paper's open-loop totals."""
+    from whisker.sim.experiments.repeat import PAPER_GRASP_TOTAL
+
+    counts = sorted({r["whiskers"] for r in rows}, reverse=True)
+    cells = []
+    for c in counts:
+        rs = [r for r in rows if r["whiskers"] == c]
+        o = 100 * float(np.mean([r["open_success"] / r["attempts"] for r in rs]))
+        k = 100 * float(np.mean([r["closed_success"] / r["attempts"] for r in rs]))
+        col = {8: 0, 4: 1, 2: 2}.get(c)
+        paper = f"{PAPER_GRASP_TOTAL[col]:g}" if col is not None and col < len(PAPER_GRASP_TOTAL) else "-"
+        cells.append(f"{c} whiskers {o:.0f} / {k:.0f} / {paper}")
+    return "\nTotals over the objects, success % open / closed / paper: " + "; ".join(cells) + ".\n"
 
 
 def closed_loop_csv(tab: dict) -> str:
