@@ -294,3 +294,11 @@ def test_sim_hold_level_keeps_the_pressing_torque_at_the_held_gap(grasp_setup):
     floor = p.min_fraction * p.full_level
     assert np.linalg.norm(exp(floor), axis=1).min() > 0.75 * np.linalg.norm(exp(p.full_level), axis=1).max()
     assert np.all(exp.pressing_Nm(floor, held) < 0.5 * full)
+
+
+def test_closedloop_cli_default_scene_is_the_shipped_grasp_scene():
+    """`whisker closedloop` without --scene reads the package's grasp.toml (it once pointed at a
+    folder that a layout move had emptied, and `make docs-closedloop` failed)."""
+    from whisker.commands.sensor.closedloop import DEFAULT_SCENE
+
+    assert DEFAULT_SCENE.is_file() and DEFAULT_SCENE.name == "grasp.toml"

@@ -28,7 +28,7 @@ MANIFEST = ROOT / "docs" / "generated.json"
 
 
 #: the generated files (globs relative to the repository): every one must carry a current stamp
-GENERATED = ("docs/images/**/*.png", "docs/images/**/*.jpg", "docs/images/**/*.csv", "docs/images/*.json", "docs/sweep_table.md",
+GENERATED = ("docs/images/**/*.png", "docs/images/**/*.jpg", "docs/images/**/*.csv", "docs/images/*.json", "docs/*_table.md",
              "docs/tracking_real.md",
              "benchmarks/results/*.md", "benchmarks/results/*.csv", "benchmarks/results/*.png",
              "benchmarks/results/*.json")

@@ -7,7 +7,7 @@ controller answers with coil levels and an arm velocity (`Command`). Phases:
    the state estimator each whisker's rest position and noise. A whisker in contact here (before
    any actuation) aborts: coils off, arm up (fail safe, reason logged).
 2. ``close``    the configuration's coils at the paper's level. After `settle_s` (from the design's
-   whisker dynamics, :func:`settle_time_s`: ~76 ms, so the second frame at 15/s) a whisker holds the
+   whisker dynamics, :func:`settle_time_s`: ~98 ms, so the second frame at 15/s) a whisker holds the
    object when its displacement differs from the displacement its own coil alone would cause
    (`expected_px(level)`, the free closing in air) by more than the estimator's contact threshold
    (whisker.sensing.states.AdaptiveEstimator with the command's expected displacement). Grip when at

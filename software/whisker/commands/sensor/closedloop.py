@@ -10,8 +10,9 @@ import click
 
 from whisker.cliutil import fail
 from whisker.commands.sensor.actuate import config_options
+from whisker.resources import scenes_dir
 
-DEFAULT_SCENE = Path(__file__).resolve().parents[1] / "sim" / "scenes" / "grasp.toml"
+DEFAULT_SCENE = scenes_dir() / "grasp.toml"
 
 #: options that only the simulated comparison reads, and those only a hardware run reads
 SIM_ONLY = ("scene_path", "attempts", "objects", "counts", "out", "open_guard", "jobs", "locate")

@@ -191,7 +191,24 @@ def closed_loop_markdown(tab: dict) -> str:
     out.append(f"| **all** | | {100 * so / nt:.0f} / {100 * sc / nt:.0f} / | | {eo / nt:.2f} / {ec / nt:.2f} | "
                f"{_fmt_e(eo / so if so else math.inf)} / {_fmt_e(ec / sc if sc else math.inf)} | | | "
                f"{sum(r['aborts'] for r in tab['rows'])} |")
-    return "\n".join(out) + "\n"
+    return "\n".join(out) + "\n" + _totals_by_count(tab["rows"])
+
+
+def _totals_by_count(rows) -> str:
+    """Success per whisker count over the objects (the mean of the objects' rates, as the paper's
+    totals), open / closed, beside the paper's open-loop totals."""
+    from whisker.sim.experiments.repeat import PAPER_GRASP_TOTAL
+
+    counts = sorted({r["whiskers"] for r in rows}, reverse=True)
+    cells = []
+    for c in counts:
+        rs = [r for r in rows if r["whiskers"] == c]
+        o = 100 * float(np.mean([r["open_success"] / r["attempts"] for r in rs]))
+        k = 100 * float(np.mean([r["closed_success"] / r["attempts"] for r in rs]))
+        col = {8: 0, 4: 1, 2: 2}.get(c)
+        paper = f"{PAPER_GRASP_TOTAL[col]:g}" if col is not None and col < len(PAPER_GRASP_TOTAL) else "-"
+        cells.append(f"{c} whiskers {o:.0f} / {k:.0f} / {paper}")
+    return "\nTotals over the objects, success % open / closed / paper: " + "; ".join(cells) + ".\n"
 
 
 def closed_loop_csv(tab: dict) -> str:
