@@ -138,7 +138,7 @@ def sim_sense_check():
     except ImportError as err:
         print(f"bench_classify: simulator not available ({err}); section 4 skipped")
         return []
-    from whisker.data.dataset import load_csv_folder
+    from whisker.data.dataset_files import load_csv_folder
     from whisker.design import default_design
 
     scene = Path(__file__).resolve().parents[1] / "software" / "whisker" / "sim" / "scenes" / "classification.toml"
@@ -459,7 +459,7 @@ Inference: `batch_us_per_sample` = best-of-5 time of predicting all test samples
 
 `pose` holds out whole sensor rotations: without augmentation the test rotations are unseen; the
 rotation augmentation must map trained rotations onto them, which works only with the physical pairing
-of index shift and vector rotation (`sense` from the design's camera model, `whisker.data.dataset.design_sense`).
+of index shift and vector rotation (`sense` from the design's camera model, `whisker.data.dataset_files.design_sense`).
 
 {markdown_table(sim_rows, ["rotation_pairing", "protocol", "accuracy_mean_pct", "accuracy_std_pct", "n_train", "n_test"], f1) if sim_rows else "(skipped: simulator not available)"}
 
