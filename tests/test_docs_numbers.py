@@ -25,7 +25,7 @@ import pytest
 from conftest import load_manifest
 from whisker.design import fasteners
 from whisker.design import flanges
-from whisker.cad import adapter
+from whisker.cad.solids import adapter
 from whisker.design import default_design
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -375,7 +375,7 @@ def design_joints(design: Design) -> list:
     """Every fastened joint of the design (whisker.design.fasteners.Joint): the camera board's screws,
     the adapter's (mount, flange plate, robot) and the camera cover's."""
     from whisker.design import fasteners as fz
-    from whisker.cad import adapter, cover
+    from whisker.cad.solids import adapter, cover
 
     f = design.fasteners
     return [fz.Joint("camera board", f.camera_screw, f.camera_joint, 4, design.camera.board_thickness),

@@ -101,7 +101,7 @@ def pla_grams(volume_mm3: float, area_mm2: float, density_g_cm3: float,
 
 def read_print_report(path: str | Path, design: Optional[Design] = None) -> dict[str, float]:
     """Filament grams per printed part from the slicer report ``print_report.json``
-    (``whisker print check``, whisker.cad.printcheck): ``parts[name]["gcode"]["filament_g"]``.
+    (``whisker print check``, whisker.cad.verify.printcheck): ``parts[name]["gcode"]["filament_g"]``.
 
     With `design`, a report of another design (``design_digest``) is refused. Raises BomError
     naming what is wrong.

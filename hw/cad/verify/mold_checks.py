@@ -25,10 +25,10 @@ from shapely.geometry import Point
 
 from whisker.design import Design
 
-from . import ring
-from .checks import holes, section
-from .verdict import Check, make_check, measured_check
-from .shapes import polar_xy
+from whisker.cad.solids import ring
+from whisker.cad.verify.checks import holes, section
+from whisker.cad.verify.verdict import Check, make_check, measured_check
+from whisker.cad.solids.shapes import polar_xy
 
 # Faces closer than this to the cavity's floor or top belong to them, not to a side wall (mm).
 EDGE = 1e-3
@@ -100,7 +100,7 @@ def release_checks(base: trimesh.Trimesh, ring_mesh: trimesh.Trimesh, d: Design)
 
 def vent_checks(lid: trimesh.Trimesh, ring_mesh: trimesh.Trimesh, d: Design) -> list[Check]:
     """Every vent of the lid is at a cavity corner and visible from above past the whisker ring."""
-    from .checks import _ray_hits, describe_circles
+    from whisker.cad.verify.checks import _ray_hits, describe_circles
 
     top = d.membrane.thickness + d.mold.lid_thickness
     corner = d.membrane.inscribed_radius / math.cos(math.pi / d.membrane.sides)

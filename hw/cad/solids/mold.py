@@ -19,7 +19,7 @@ so a rod does not float off its stop while the silicone cures.
 Parting: the cured membrane comes out of the base upwards, the direction the rods leave their
 sockets. The cavity's side walls have ``mold.draft_deg`` of draft (the cavity widens upwards); the
 cavity is the nominal polygon at mid-thickness, so the cast membrane is within
-(thickness / 2) tan(draft) of the reference membrane, top and bottom (whisker.cad.mold_checks
+(thickness / 2) tan(draft) of the reference membrane, top and bottom (whisker.cad.verify.mold_checks
 measures both on the mesh).
 """
 
@@ -31,7 +31,7 @@ import cadquery as cq
 
 from whisker.design import Design
 
-from .shapes import cut_all, cylinder, polar_xy, polygon_points
+from whisker.cad.solids.shapes import cut_all, cylinder, polar_xy, polygon_points
 
 # Uneven so the lid cannot be put on turned: the polygon flats nearest these angles (deg).
 PIN_ANGLES_DEG = (0.0, 90.0, 200.0)

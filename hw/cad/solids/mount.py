@@ -21,8 +21,8 @@ from whisker.design import fasteners
 from whisker.design import sizing
 from whisker.design import Design
 
-from . import camera_seat
-from .shapes import cut_all, cylinder, polar_xy, polygon_prism, radial_cylinder, revolved
+from whisker.cad.solids import camera_seat
+from whisker.cad.solids.shapes import cut_all, cylinder, polar_xy, polygon_prism, radial_cylinder, revolved
 
 
 def cavity_profile(d: Design, z: dict[str, float]) -> cq.Solid:
@@ -69,7 +69,7 @@ def mount_tools(d: Design) -> dict[str, cq.Shape]:
     for k, a in enumerate(sizing.cable_exit_angles(d)):
         tools[f"cable exit {k}"] = radial_cylinder(0, m.outer_radius + 1, d.hole(m.cable_exit_diameter), z["cable"], a)
     # The camera cover's screws (bench use without the adapter), beside the board pocket.
-    from . import cover
+    from whisker.cad.solids import cover
     cl = cover.layout(d)
     _, engaged = fasteners.screw_length(f.cover_screw, f.cover_joint, cl["thickness"] - cl["screw"].head_height - 0.5)
     hole = fasteners.hole(f.cover_screw, f.cover_joint)

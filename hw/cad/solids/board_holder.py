@@ -17,7 +17,7 @@ import cadquery as cq
 
 from whisker.design import Design
 
-from .shapes import cut_all, cylinder, polygon_prism
+from whisker.cad.solids.shapes import cut_all, cylinder, polygon_prism
 
 PAPER_MM = 0.1          # thickness of the printed board patch (80 g/m^2 office paper is ~0.1 mm)
 PUSH_HOLE_MM = 6.0      # diameter of the central push-out hole

@@ -1,5 +1,5 @@
 """Named features (the solids cut from a part, and the space around its edges) of the printed parts,
-for the wall check (whisker.cad.walls). Units: mm, sensor coordinates.
+for the wall check (whisker.cad.verify.walls). Units: mm, sensor coordinates.
 
 The mount's and the moulds' are their own named tools (mount.mount_tools, mold.base_tools,
 mold.lid_tools). The ring's repeat the cutting tools of ring.py with names; tests/test_walls.py
@@ -14,9 +14,9 @@ import cadquery as cq
 from whisker.design import sizing
 from whisker.design import Design
 
-from . import mold, mount, ring
-from .shapes import cylinder, polar_xy
-from .walls import outside_ring, outside_slab
+from whisker.cad.solids import mold, mount, ring
+from whisker.cad.solids.shapes import cylinder, polar_xy
+from whisker.cad.verify.walls import outside_ring, outside_slab
 
 Features = dict[str, cq.Shape]
 
@@ -58,7 +58,7 @@ def insert_walls(d: Design) -> dict[str, dict[str, float]]:
     the fastener table's insert_min_wall (hw/fasteners.csv), read through fasteners.Hole.wall."""
     from whisker.design import fasteners
 
-    from . import adapter
+    from whisker.cad.solids import adapter
 
     out: dict[str, dict[str, float]] = {}
     f = d.fasteners
@@ -77,7 +77,7 @@ def all_printed(d: Design) -> dict[str, tuple[Features, float, list[str], dict[s
     """Every printed part's (features, thinnest wall in mm, features that must not meet any other,
     {feature: its own thinnest wall in mm}): the FDM parts at print.min_wall, the resin bobbin at
     bobbin.min_wall, the holes of heat-set inserts at the fastener table's insert wall."""
-    from . import adapter, bobbin, coupon, cover, winding_jig
+    from whisker.cad.solids import adapter, bobbin, coupon, cover, winding_jig
 
     own = insert_walls(d)
     out = {name: (fn(d), d.print.min_wall, [], own.get(name, {})) for name, fn in FEATURES.items()}

@@ -2,8 +2,8 @@
 with its parts (quantities from the BOM, hw/bom.csv), tools, picture, what to do and the check.
 
 The steps that carry out an assembly-sequence step or a casting view (``sequence = "..."``) take that
-step's picture (whisker.cad.assembly_images names the files), so the guide, the pictures and the
-sequence check (whisker.cad.sequence) read one list. tests/test_build_guide.py fails when the page,
+step's picture (whisker.cad.pictures.assembly_images names the files), so the guide, the pictures and the
+sequence check (whisker.cad.assembly.sequence) read one list. tests/test_build_guide.py fails when the page,
 the data, the pictures, the sequence or the BOM disagree. `make guide` rewrites the page.
 """
 
@@ -57,7 +57,7 @@ def bom_lines(path: str | Path = BOM) -> dict[str, dict[str, str]]:
 
 def sequence_pictures() -> dict[str, str]:
     """Assembly picture (relative to docs/) of every casting view and sequence step, by name."""
-    from . import assembly_images
+    from whisker.cad.pictures import assembly_images
 
     return {v.name: f"images/assembly/{v.file_name(i)}" for i, v in enumerate(assembly_images.views(), start=1)}
 

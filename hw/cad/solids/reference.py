@@ -12,7 +12,7 @@ import cadquery as cq
 from whisker.design import Design
 from whisker.design import sizing
 
-from .shapes import ORIGIN, Z, cut_all, cylinder, polar_xy, polygon_prism, radial_cylinder
+from whisker.cad.solids.shapes import ORIGIN, Z, cut_all, cylinder, polar_xy, polygon_prism, radial_cylinder
 
 
 def membrane(d: Design) -> cq.Shape:
@@ -42,21 +42,21 @@ def rod(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
 
 
 def bobbin(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
-    """The coil former (whisker.cad.bobbin) of whisker `angle_deg`, tilted with its rod."""
-    from . import bobbin as former
+    """The coil former (whisker.cad.solids.bobbin) of whisker `angle_deg`, tilted with its rod."""
+    from whisker.cad.solids import bobbin as former
     return _tilt(former.bobbin(d), d, angle_deg, tilt_deg)
 
 
 def winding(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
-    """The copper on the bobbin: a full annulus between tab and flange (whisker.cad.bobbin)."""
-    from . import bobbin as former
+    """The copper on the bobbin: a full annulus between tab and flange (whisker.cad.solids.bobbin)."""
+    from whisker.cad.solids import bobbin as former
     return _tilt(former.winding_envelope(d), d, angle_deg, tilt_deg)
 
 
 def coil(d: Design, angle_deg: float = 0.0, tilt_deg: float = 0.0) -> cq.Shape:
     """The coil as it is made, one rigid piece: the bobbin and its winding, with the rod in the
     bobbin's tab outside the winding (whisker.design.former)."""
-    from . import bobbin as former
+    from whisker.cad.solids import bobbin as former
     body = former.bobbin(d).fuse(former.winding_envelope(d)).clean()
     return _tilt(body, d, angle_deg, tilt_deg)
 

@@ -26,8 +26,8 @@ from whisker.design import Design, DesignError
 from whisker.files import read_toml
 from whisker.resources import hw_dir
 
-from . import reference
-from .verdict import VOLUME_EPS, Check, make_check, to_mesh
+from whisker.cad.solids import reference
+from whisker.cad.verify.verdict import VOLUME_EPS, Check, make_check, to_mesh
 
 SEQUENCE = hw_dir() / "assembly_sequence.toml"
 VARIANTS = ("robot", "bench")
@@ -60,17 +60,17 @@ def load_steps(path: str | Path = SEQUENCE) -> list[Step]:
 def _camera(d: Design) -> list[tuple[str, cq.Shape]]:
     from whisker.design.camera_boards import profile
 
-    from .camera_seat import board
+    from whisker.cad.solids.camera_seat import board
     return list(board(d, profile(d.camera.board), sizing.mount_levels(d)["board_face"]).items())
 
 
 def _adapter(d):
-    from . import adapter
+    from whisker.cad.solids import adapter
     return [("adapter", adapter.adapter(d)), ("flange plate", adapter.flange_plate(d))]
 
 
 def _cover(d):
-    from . import cover
+    from whisker.cad.solids import cover
     return [("cover", cover.cover(d))]
 
 

@@ -45,7 +45,7 @@ def evaluate_point(design_file: str | None, overrides: tuple[str, ...], count: i
             row.update(conflict=f"{why.split(':')[0]} (closed-form bound)", kind="conflict", reason=why,
                        seconds=round(time.perf_counter() - t0, 3))
             return row
-    from .build import evaluate  # CadQuery loads in the worker only
+    from whisker.cad.build import evaluate  # CadQuery loads in the worker only
 
     try:
         results = evaluate(d)

@@ -7,7 +7,9 @@ import cadquery as cq
 
 from whisker.design import Design
 
-from . import reference, swing
+from whisker.cad.solids import reference
+
+from whisker.cad.assembly import swing
 
 
 def sensor_assembly(d: Design, mount: cq.Shape, membrane: cq.Shape, tilt_deg: float = 0.0) -> cq.Assembly:

@@ -9,7 +9,7 @@ there to the final place is drawn as a dashed line with an arrow head. Printed p
 go into (mount, mould, ring, adapter, cover) are cut open on the x-z plane (y >= 0 kept).
 
 The solids are those of whisker.cad (parts.PARTS, sequence.PIECES), tessellated with
-checks.to_mesh; the renderer is whisker.cad.preview.render. Units: mm.
+checks.to_mesh; the renderer is whisker.cad.pictures.preview.render. Units: mm.
 """
 
 from __future__ import annotations
@@ -25,9 +25,11 @@ import trimesh
 from whisker.design import Design
 from whisker.files import atomic_write_bytes
 
-from . import reference, sequence
-from .checks import to_mesh
-from .preview import _clip_top, render
+from whisker.cad.solids import reference
+
+from whisker.cad.assembly import sequence
+from whisker.cad.verify.checks import to_mesh
+from whisker.cad.pictures.preview import _clip_top, render
 
 #: Colour of the parts a step adds (orange; no neutral colour below is this saturated).
 HIGHLIGHT = "#e8590c"
@@ -172,8 +174,8 @@ def _hardware(d: Design, part: str) -> list[tuple[str, trimesh.Trimesh]]:
     """The screws and heat-set inserts of a part, drawn in place (their sizes from hw/fasteners.csv)."""
     from whisker.design import fasteners, sizing
 
-    from . import adapter, cover
-    from .shapes import polar_xy
+    from whisker.cad.solids import adapter, cover
+    from whisker.cad.solids.shapes import polar_xy
 
     out: list[tuple[str, trimesh.Trimesh]] = []
     f = d.fasteners
@@ -209,7 +211,7 @@ def _hardware(d: Design, part: str) -> list[tuple[str, trimesh.Trimesh]]:
 def _pieces(d: Design, part: str) -> list[tuple[str, trimesh.Trimesh]]:
     """(colour key, mesh in sensor coordinates) of every piece of one part, with its screws and inserts."""
     if part in ("mount", "mold_base", "mold_lid", "whisker_ring"):
-        from .parts import BY_NAME
+        from whisker.cad.parts import BY_NAME
         return [(part, to_mesh(BY_NAME[part].build(d), *TOLERANCE)), *_hardware(d, part)]
     if part == "cast_rods":
         return [("rod", to_mesh(reference.rod(d, a), *TOLERANCE)) for a in d.whisker_angles_deg]

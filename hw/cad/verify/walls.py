@@ -17,7 +17,7 @@ mesh (the exported STL tessellation), not read from the design's numbers:
    that lie on the two features (they end at the part's edges, so the pair cannot slide off it):
    the reported thickness does not depend on the sampling.
 
-The result is a :class:`whisker.cad.verdict.Check` naming the thinnest wall's two features and
+The result is a :class:`whisker.cad.verify.verdict.Check` naming the thinnest wall's two features and
 where it is (x, y, z in the mesh's coordinates, mm). Units: mm.
 """
 
@@ -33,7 +33,7 @@ import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
-from .verdict import Check, make_check, to_mesh
+from whisker.cad.verify.verdict import Check, make_check, to_mesh
 
 # Features closer than this are one opening, not two with a wall between them (mm).
 TOUCH = 1e-3

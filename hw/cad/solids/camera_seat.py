@@ -16,7 +16,7 @@ from whisker.design import fasteners
 from whisker.design import sizing
 from whisker.design import Design
 
-from .shapes import cylinder
+from whisker.cad.solids.shapes import cylinder
 
 CABLE_DEG = 270.0  # the flat cable leaves towards -y
 

@@ -1,6 +1,6 @@
 """The robot adapter's numbers without CadQuery: plate levels, radii, screws and their angles.
 
-whisker.cad.adapter builds the two plates (ISO 9409-1 flange plate and the adapter under the mount)
+whisker.cad.solids.adapter builds the two plates (ISO 9409-1 flange plate and the adapter under the mount)
 from these numbers; the ROS node's URDF (whisker.ros.urdf) reads the same levels for the tool flange
 offset, so neither needs CadQuery for the numbers and no dimension is typed twice. Units: mm, deg,
 sensor coordinates (z = 0 on the membrane's lower face).
@@ -14,7 +14,7 @@ import numpy as np
 
 from whisker.design import Design, fasteners, flanges, sizing
 
-from . import extras
+from whisker.cad import extras
 
 # Cable channel direction in the adapter's top face (deg): the flat cable leaves at -y.
 CABLE_DEG = 270.0

@@ -15,9 +15,9 @@ import cadquery as cq
 
 from whisker.design import Design
 
-from . import bobbin as bobbin_model
-from . import extras
-from .shapes import cut_all, cylinder
+from whisker.cad.solids import bobbin as bobbin_model
+from whisker.cad import extras
+from whisker.cad.solids.shapes import cut_all, cylinder
 
 
 def layout(d: Design) -> dict:
@@ -45,7 +45,7 @@ def jig_tools(d: Design) -> dict[str, cq.Shape]:
 
 
 def edges(d: Design) -> dict[str, cq.Shape]:
-    from .walls import outside_ring
+    from whisker.cad.verify.walls import outside_ring
 
     L = layout(d)
     return {"disc rim": outside_ring(L["settings"].disc_diameter / 2, L["disc"][0], L["disc"][1])}

@@ -1,7 +1,7 @@
 """Pictures of the build guide that are not assembly steps (docs/build.md, `make guide`): the winding
 jig in use, with a bobbin in its pocket, the winding, the wire's path and the turn counters named.
 
-The jig (whisker.cad.winding_jig) turns the bobbin about its coil axis on the arbor's axis (+z): the
+The jig (whisker.cad.solids.winding_jig) turns the bobbin about its coil axis on the arbor's axis (+z): the
 bobbin's tab sits in the disc's pocket, keyed, with the tab's rod side down. In sensor coordinates
 the bobbin's coil axis is +x at z = coil axis height and its tab spans the tab's x range; the
 picture maps (x, y, z) -> (y, z - coil axis, x - tab start + pocket floor), a proper rotation.
@@ -18,10 +18,10 @@ import trimesh
 from whisker.design import Design
 from whisker.files import atomic_write_bytes
 
-from . import bobbin as bobbin_model
-from . import winding_jig
-from .checks import to_mesh
-from .preview import render
+from whisker.cad.solids import bobbin as bobbin_model
+from whisker.cad.solids import winding_jig
+from whisker.cad.verify.checks import to_mesh
+from whisker.cad.pictures.preview import render
 
 #: Mesh tolerances for the pictures (mm, rad).
 TOLERANCE = (0.02, 0.2)
@@ -117,9 +117,9 @@ def write_guide_images(d: Design, out: str | Path, size_px: tuple[int, int] = (9
 def generated(d: Design) -> set[str]:
     """Every picture (relative to docs/) that `make guide` writes: the part previews, the assembly
     steps and this module's."""
-    from . import assembly_images
-    from .parts import PARTS
-    from .preview import RESIN_PREVIEW
+    from whisker.cad.pictures import assembly_images
+    from whisker.cad.parts import PARTS
+    from whisker.cad.pictures.preview import RESIN_PREVIEW
 
     parts = {f"images/parts/{p.name}.png" for p in PARTS if p.printable or p.name in RESIN_PREVIEW}
     steps = {f"images/assembly/{v.file_name()}" for v in assembly_images.views()}

@@ -72,7 +72,7 @@ def coupon_tools(d: Design) -> dict[str, cq.Shape]:
 
 def edges(d: Design) -> dict[str, cq.Shape]:
     """The space around the plate's four sides, for the wall check."""
-    from .walls import outside_box
+    from whisker.cad.verify.walls import outside_box
 
     lay = layout(d)
     return {"plate edge": outside_box((0.0, 0.0, 0.0), (lay["width"], lay["wall_y0"], lay["plate_t"]))}

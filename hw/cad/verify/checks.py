@@ -20,8 +20,8 @@ from shapely.geometry import Point, Polygon
 from whisker.design import sizing
 from whisker.design import Design
 
-from . import reference, ring
-from .verdict import VOLUME_EPS, Check, make_check, measured_check, to_mesh  # noqa: F401  (re-exported for the checks' users)
+from whisker.cad.solids import reference, ring
+from whisker.cad.verify.verdict import VOLUME_EPS, Check, make_check, measured_check, to_mesh  # noqa: F401  (re-exported for the checks' users)
 
 
 def resolution(d: Design, radius: float) -> float:
@@ -327,7 +327,7 @@ def solid_checks(d: Design, mount: cq.Shape, membrane: cq.Shape) -> list[Check]:
                       f">= {need:g}", "mm", ("whiskers.count", "whiskers.ring_radius", "whiskers.max_deflection_deg",
                                        "coil.outer_diameter", "coil.length", "actuation.gap", "mount.flange_thickness"),
                       where))
-    from .swing import swing_check  # every solid, rods, windings and leads included, over the swing
+    from whisker.cad.assembly.swing import swing_check  # every solid, rods, windings and leads included, over the swing
     out += swing_check(d, mount, membrane)
     mem_overlap = _common_volume(membrane, mount)
     out.append(make_check("membrane overlaps its seat", "assembly", mem_overlap, mem_overlap < VOLUME_EPS, "0", "mm^3",

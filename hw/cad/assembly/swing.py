@@ -27,9 +27,9 @@ import numpy as np
 from whisker.design import leads
 from whisker.design import Design
 
-from . import bobbin as former
-from . import reference
-from .verdict import VOLUME_EPS, Check, make_check, to_mesh
+from whisker.cad.solids import bobbin as former
+from whisker.cad.solids import reference
+from whisker.cad.verify.verdict import VOLUME_EPS, Check, make_check, to_mesh
 
 # The lead as modelled: enamelled 0.1 mm wire (whisker.coil.enamel_overall_diameter_mm).
 SPHERE_SEGMENTS = 8

@@ -15,9 +15,9 @@ from whisker.design import fasteners
 from whisker.design import sizing
 from whisker.design import Design
 
-from . import extras
-from .shapes import cut_all, cylinder
-from .walls import outside_box
+from whisker.cad import extras
+from whisker.cad.solids.shapes import cut_all, cylinder
+from whisker.cad.verify.walls import outside_box
 
 
 def layout(d: Design) -> dict:

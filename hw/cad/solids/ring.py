@@ -14,13 +14,13 @@ import cadquery as cq
 
 from whisker.design import Design
 
-from .shapes import cut_all, cylinder, polar_xy
+from whisker.cad.solids.shapes import cut_all, cylinder, polar_xy
 
 
 def radii(d: Design) -> dict[str, float]:
     """Inner opening, outer plate radius and tube radii (mm). The plate and the tube end ring.margin
     outside the sockets, inside the mould lid's vents (at the cavity's corners), so the pourer sees
-    every vent from above with the jig in place (whisker.cad.mold_checks.vent_checks)."""
+    every vent from above with the jig in place (whisker.cad.verify.mold_checks.vent_checks)."""
     w, r = d.whiskers, d.ring
     socket_r = d.hole(w.rod_diameter) / 2
     outer = w.ring_radius + socket_r + r.margin

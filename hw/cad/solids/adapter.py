@@ -30,10 +30,10 @@ import cadquery as cq
 
 from whisker.design import Design, fasteners, flanges
 
-from .shapes import cut_all, cylinder, polar_xy
+from whisker.cad.solids.shapes import cut_all, cylinder, polar_xy
 
 # The plates' numbers (levels, radii, screw angles) without CadQuery: whisker.ros.urdf reads them too.
-from .adapter_layout import CABLE_DEG, _angles, _layout, _min_gap, _points, _stock_thickness, layout, sensor_angles  # noqa: F401
+from whisker.cad.solids.adapter_layout import CABLE_DEG, _angles, _layout, _min_gap, _points, _stock_thickness, layout, sensor_angles  # noqa: F401
 
 
 def adapter_tools(d: Design, preset: str | None = None) -> dict[str, cq.Shape]:
@@ -101,7 +101,7 @@ def flange_plate(d: Design, preset: str | None = None) -> cq.Shape:
 
 def edges(d: Design, preset: str | None = None) -> dict[str, cq.Shape]:
     """The space around the adapter's rim, for the wall check."""
-    from .walls import outside_ring
+    from whisker.cad.verify.walls import outside_ring
 
     L = layout(d, preset)
     return {"adapter rim": outside_ring(L["radius"], L["bottom"], L["top"])}
@@ -109,7 +109,7 @@ def edges(d: Design, preset: str | None = None) -> dict[str, cq.Shape]:
 
 def plate_edges(d: Design, preset: str | None = None) -> dict[str, cq.Shape]:
     """The space around the flange plate's rim, for the wall check."""
-    from .walls import outside_ring
+    from whisker.cad.verify.walls import outside_ring
 
     L = layout(d, preset)
     return {"plate rim": outside_ring(L["plate_radius"], L["plate_bottom"], L["plate_top"])}

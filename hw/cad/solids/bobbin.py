@@ -21,7 +21,7 @@ from whisker.design import former
 from whisker.design import Design
 from whisker.design.stop import end_stop
 
-from .shapes import cut_all, cylinder, radial_cylinder
+from whisker.cad.solids.shapes import cut_all, cylinder, radial_cylinder
 
 
 def layout(d: Design) -> dict:
@@ -45,7 +45,7 @@ def bobbin_tools(d: Design) -> dict[str, cq.Shape]:
 
 def edges(d: Design) -> dict[str, cq.Shape]:
     """The space around the tab's sides, for the wall check."""
-    from .walls import outside_box
+    from whisker.cad.verify.walls import outside_box
 
     L = layout(d)
     r = d.coil.outer_diameter / 2
