@@ -28,7 +28,7 @@ DOCS_BENCH_FILES_actuation = actuation.md actuation_guard.csv actuation_guard.pn
 DOCS_BENCH_FILES_bom = bom.md bom.csv
 DOCS_BENCH_FILES_cad = cad.md cad_tessellation.csv cad_tessellation.png
 DOCS_BENCH_FILES_classify = classify.md classify.csv classify.png classify_beyond.csv classify_confusion.json classify_models.csv \
-	classify_pairing.csv classify_protocols.csv classify_sim.csv docs/images/confusion_*.png
+	classify_pairing.csv classify_protocols.csv classify_sim.csv classify_trials.csv docs/images/confusion_*.png
 DOCS_BENCH_FILES_coil = coil.md coil.csv
 DOCS_BENCH_FILES_compliant = sim_compliant.md sim_compliant.csv
 DOCS_BENCH_FILES_driver = driver.md driver.csv

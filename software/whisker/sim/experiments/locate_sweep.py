@@ -208,8 +208,8 @@ def peer_jitter_series(design, path=None) -> tuple[np.ndarray, float]:
 
     Source: airflow/airflowDemoData.csv of the authors' data (WHISKER_PEER_DATA; 2337 frames at ~65 fps
     of one whisker's marker displacement, px). The quiet runs (every 32-frame window's std below
-    QUIET_STD_PX on both axes, the rest/hold periods between air puffs) are kept, each run minus its own
-    mean, in time order (so the spectrum is the measured one), and converted px -> rad by the design's
+    QUIET_STD_PX on both axes, the rest/hold periods between air puffs; QUIET_WINDOW / 4 frames trimmed
+    off each end) are kept, each run minus its own mean, in time order (so the spectrum is the measured one), and converted px -> rad by the design's
     marker lever (l_l / mm_per_px px per rad: a marker displacement of 1 px is that tilt). Their dx is
     taken as radial and dy as tangential (both have the same spread)."""
     import os
@@ -227,7 +227,9 @@ def peer_jitter_series(design, path=None) -> tuple[np.ndarray, float]:
         if (xy[i:i + QUIET_WINDOW].std(axis=0) < QUIET_STD_PX).all():
             quiet[i:i + QUIET_WINDOW] = True
     edges = np.flatnonzero(np.diff(np.r_[0, quiet.astype(int), 0]))
-    runs = [xy[a:b] - xy[a:b].mean(axis=0) for a, b in zip(edges[::2], edges[1::2]) if b - a >= 2 * QUIET_WINDOW]
+    trim = QUIET_WINDOW // 4          # a window that only starts to catch a movement can still pass: drop run ends
+    runs = [xy[a + trim:b - trim] - xy[a + trim:b - trim].mean(axis=0)
+            for a, b in zip(edges[::2], edges[1::2]) if b - a >= 2 * QUIET_WINDOW + 2 * trim]
     if not runs:
         raise ValueError(f"{path}: no still period of {2 * QUIET_WINDOW} frames found")
     px_per_rad = design.derived()["l_l_mm"] / design.derived()["mm_per_px"]
