@@ -144,7 +144,8 @@ def main() -> None:
                            {"export_s": ".3f", "worst_volume_error_pct": ".4f", "rod_hole_diameter_error_mm": ".4f"})
     lines = [
         "# CAD: tessellation accuracy against time, and build speed", "",
-        f"Machine: {machine_line()}. Default design, the four printable parts. Reference: the CAD solids' exact",
+        f"Machine: {machine_line()}. Default design, its {sum(1 for p in PARTS if p.printable)} printable parts "
+        f"({', '.join(p.name for p in PARTS if p.printable)}). Reference: the CAD solids' exact",
         "volumes (OpenCascade). Rod-hole error: mould rod sockets measured on the mesh against rod + 2 x clearance.", "",
         table, "",
         "![tessellation](cad_tessellation.png)", "",

@@ -92,7 +92,8 @@ def main() -> None:
         f"default design ({d.whiskers.count} whiskers). Timings are wall-clock on a shared machine; "
         "compare them within this table only.", "",
         "## A. Slicing variants (reference: full profile)", "",
-        "Sensor parts (mount, mould base and lid, whisker ring; the coupon is not counted):", "",
+        "Sensor parts (" + ", ".join(dict.fromkeys(r["part"] for r in rows if r["part"] not in pc.CALIBRATION_PARTS))
+        + "; the calibration prints are not counted):", "",
         markdown_table(list(totals.values()), ["variant", "slice_s", "slice_speedup", "print_time_min",
                                                 "time_error_pct", "filament_g", "grams_error_pct"]), "",
         "Per part:", "",

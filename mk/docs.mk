@@ -55,7 +55,7 @@ DOCS_BENCH_REDUCED_ros = 6 s of frames per tracker (make bench-ros: 12 s)
 
 .PHONY: docs docs-check $(DOCS_GROUPS)
 
-docs: $(BIN)/.installed ## regenerate and stamp every generated figure and table (reduced long runs; see docs/README.md for the times)
+docs: $(BIN)/.installed ## regenerate and stamp every generated figure and table (reduced long runs; about an hour on 2 shared cores: README lists each group's time)
 	@mkdir -p $(DOCS_RUNS); : > $(DOCS_RUNS)/times.txt; failed=0; \
 	for g in $(DOCS_GROUPS); do s=$$(date +%s); \
 	  $(MAKE) --no-print-directory $$g || { failed=1; echo "$$g FAILED" >> $(DOCS_RUNS)/times.txt; }; \
