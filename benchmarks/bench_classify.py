@@ -52,7 +52,8 @@ import numpy as np  # noqa: E402
 
 from common import best_time_s, machine_line, markdown_table, save_figure, write_csv, write_text  # noqa: E402
 from whisker.data import classify as C  # noqa: E402
-from whisker.data.dataset import PAPER_OBJECTS, load_peer  # noqa: E402
+from whisker.data.dataset import PAPER_OBJECTS  # noqa: E402
+from whisker.data.dataset_files import load_peer  # noqa: E402
 
 DOCS_IMAGES = Path(__file__).resolve().parents[1] / "docs" / "images"
 SEEDS = range(10)
