@@ -269,6 +269,9 @@ def copper(job):
 
 
 def main(argv):
+    # KiCad gives every item a random UUID, and orders items (hence the Gerber apertures) by them:
+    # a seeded generator makes the same job give the same board and the same Gerber bytes
+    pcbnew.KIID.SeedGenerator(20240601)
     job = json.load(open(argv[1]))
     {"build": build, "import_ses": import_ses, "copper": copper, "fill": refill}[job["op"]](job)
 
