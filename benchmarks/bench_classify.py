@@ -26,8 +26,12 @@ Needs the authors' data through WHISKER_PEER_DATA (skips with a message otherwis
    10 seeds (joblib over the fits); accuracy, training time, inference time per sample.
 6. Why rotated copies hurt on the real data: whisker.data.symmetry's pairing table (every index shift,
    both senses, every roll of the 4 approach directions) and the contact pattern.
+7. Why whole held-out trials stop near 95 % (issue 31 asks 97 %): accuracy of every (object, trial)
+   when it is held out; the trials no model recognises, trained on all the other 48 trials, with
+   every feature family and a soft-voting ensemble; and the ceiling those trials put on the mean.
 
-`python bench_classify.py --reuse` keeps sections 1-4 from their CSVs (classify_protocols.csv,
+`python bench_classify.py --reuse` keeps sections 1-4 from their CSVs; `--reuse-beyond` also keeps
+section 5 (classify_beyond.csv) (classify_protocols.csv,
 classify.csv, classify_models.csv, classify_sim.csv) and recomputes 5-6.
 
 Writes benchmarks/results/classify.md, classify_beyond.csv, classify_pairing.csv, classify.csv (the cost grid), classify_protocols.csv,
@@ -134,7 +138,7 @@ def sim_sense_check():
     except ImportError as err:
         print(f"bench_classify: simulator not available ({err}); section 4 skipped")
         return []
-    from whisker.data.dataset import load_csv_folder
+    from whisker.data.dataset_files import load_csv_folder
     from whisker.design import default_design
 
     scene = Path(__file__).resolve().parents[1] / "software" / "whisker" / "sim" / "scenes" / "classification.toml"
@@ -212,6 +216,108 @@ def pairing_rows(peer):
                  **{f"w{w}": f"{100 * pattern[r, w]:.0f}" for w in range(peer.n_whiskers)}}
                 for r in range(peer.n_records)]
     return base, rest, pat_rows
+
+
+def _odd_features():
+    """Feature variants for section 7 (flat rows -> features), each a plain function of one sample."""
+    def norm_polar(X):                      # magnitudes relative to the sample's own mean (force-free)
+        S = np.asarray(X, float).reshape(len(X), 8, 8, 2)
+        mag = np.linalg.norm(S, axis=-1)
+        lm = np.log1p(mag)
+        lm = lm - lm.mean(axis=(1, 2), keepdims=True)
+        return np.concatenate([lm.reshape(len(S), -1), (S / np.maximum(mag, 1.0)[..., None]).reshape(len(S), -1)], 1)
+
+    def directions(X):                      # contact directions only
+        S = np.asarray(X, float).reshape(len(X), 8, 8, 2)
+        return (S / np.maximum(np.linalg.norm(S, axis=-1), 1.0)[..., None]).reshape(len(S), -1)
+
+    def temporal(X):                        # over the 8 records: share touched, peak, mean direction
+        S = np.asarray(X, float).reshape(len(X), 8, 8, 2)
+        mag = np.linalg.norm(S, axis=-1)
+        return np.concatenate([(mag > 2).mean(1), np.log1p(mag).max(1),
+                               (S / np.maximum(mag, 1.0)[..., None]).mean(1).reshape(len(S), -1)], 1)
+    return {"magnitudes normalised per sample": norm_polar, "directions only": directions,
+            "temporal summary of the 8 records": temporal}
+
+
+def _beyond_acc(beyond, best_by) -> str:
+    """Section 5's 10-object trial accuracy of the model(s) named in best_by, as text."""
+    names = sorted(set(best_by.values()))
+    out = []
+    for n in names:
+        row = [r for r in beyond if r["objects"] == "all 10" and r["protocol"] == "trial" and r["model"] == n]
+        out.append(f"{row[0]['accuracy_mean_pct']:.1f} % ({n})" if row else f"- ({n}: not in section 5)")
+    return ", ".join(out)
+
+
+def trial_ceiling(peer):
+    """Section 7: per-trial held-out accuracy (polar SVM, the 10 trial splits), the outlier trials
+    trained on everything else, and the mean accuracy those trials allow."""
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import FunctionTransformer, StandardScaler
+    from sklearn.svm import SVC
+
+    from whisker.data.models import make_model
+
+    per, splits = {}, []
+    for seed in SEEDS:
+        train, test = C.split(peer, "trial", seed)
+        m = make_model("svc", seed=seed)
+        C.fit_quiet(m, train.features(), train.y)
+        pred = m.predict(test.features())
+        splits.append((test, pred))
+        for o in np.unique(test.y):
+            for t in np.unique(test.trial[test.y == o]):
+                k = (test.y == o) & (test.trial == t)
+                per.setdefault((str(o), int(t)), []).append(float(np.mean(pred[k] == o)))
+    trial_rows = [{"object": o, "trial": t, "times_held_out": len(v), "accuracy_pct": 100 * float(np.mean(v))}
+                  for (o, t), v in sorted(per.items())]
+    odd = [(r["object"], r["trial"]) for r in trial_rows if r["accuracy_pct"] < 50]
+    is_odd = np.zeros(len(peer), bool)
+    for o, t in odd:
+        is_odd |= (peer.y == o) & (peer.trial == t)
+    rest = peer.subset(np.flatnonzero(~is_odd))
+    models = {"polar features + RBF SVM": lambda: make_model("svc", seed=0),
+              "polar features + extra trees": lambda: make_model("trees", seed=0),
+              "cyclic DFT features + RBF SVM": lambda: make_model("dft-svc", seed=0),
+              "MLP 128, 40 epochs": lambda: make_model("mlp", seed=0, hidden=128, epochs=40)}
+    for name, f in _odd_features().items():
+        models[name + " + RBF SVM"] = (lambda f=f: make_pipeline(FunctionTransformer(f), StandardScaler(),
+                                                                  SVC(C=10.0, gamma="scale")))
+    odd_rows, probs = [], []
+    F = peer.features()
+    for name, make in models.items():
+        m = make()
+        C.fit_quiet(m, rest.features(), rest.y)
+        row = {"model (trained on the other 48 trials)": name}
+        for o, t in odd:
+            k = (peer.y == o) & (peer.trial == t)
+            row[f"{o} trial {t} %"] = 100 * float(np.mean(m.predict(F[k]) == o))
+        if name in ("polar features + RBF SVM", "polar features + extra trees", "MLP 128, 40 epochs"):
+            probs.append({(o, t): m.predict_proba(F[(peer.y == o) & (peer.trial == t)]) for o, t in odd})
+            classes = np.asarray(m.classes_)
+        odd_rows.append(row)
+    vote = {"model (trained on the other 48 trials)": "soft vote: SVM + extra trees + MLP 128"}
+    for o, t in odd:
+        P = sum(p[(o, t)] for p in probs)
+        vote[f"{o} trial {t} %"] = 100 * float(np.mean(classes[P.argmax(1)] == o))
+    odd_rows.append(vote)
+    # the ceiling: every other test sample right, the odd trials at their best leave-out accuracy
+    best_odd = {(o, t): max(r[f"{o} trial {t} %"] for r in odd_rows) / 100 for o, t in odd}
+    ceil, without = [], []
+    for test, pred in splits:
+        wrong = sum((1 - best_odd[(o, t)]) * np.sum((test.y == o) & (test.trial == t)) for o, t in odd)
+        ceil.append(1 - wrong / len(test))
+        k = np.ones(len(test), bool)
+        for o, t in odd:
+            k &= ~((test.y == o) & (test.trial == t))
+        without.append(float(np.mean(pred[k] == test.y[k])))
+    acc = [float(np.mean(pred == test.y)) for test, pred in splits]
+    key = "model (trained on the other 48 trials)"
+    best_by = {f"{o} trial {t}": max(odd_rows, key=lambda r: r[f"{o} trial {t} %"])[key] for o, t in odd}
+    summary = {"odd": odd, "svm_mean": 100 * float(np.mean(acc)), "ceiling_mean": 100 * float(np.mean(ceil)),
+               "without_mean": 100 * float(np.mean(without)), "best_by": best_by}
+    return trial_rows, odd_rows, summary
 
 
 def _read_csv(name):
@@ -310,8 +416,14 @@ def main() -> int:
         plot(grid, prot_rows)
     base, pairings, pattern = pairing_rows(peer)
     write_csv("classify_pairing.csv", [base] + pairings)
-    beyond = beyond_table(peer)
-    write_csv("classify_beyond.csv", beyond)
+    if "--reuse-beyond" in sys.argv[1:]:
+        beyond = _read_csv("classify_beyond.csv")
+    else:
+        beyond = beyond_table(peer)
+        write_csv("classify_beyond.csv", beyond)
+    trial_rows, odd_rows, ceiling = trial_ceiling(peer)
+    write_csv("classify_trials.csv", trial_rows)
+    print(ceiling, flush=True)
     best = {(o, p): max((r for r in beyond if r["objects"] == o and r["protocol"] == p),
                         key=lambda r: r["accuracy_mean_pct"]) for o in ("paper's 5", "all 10") for p in ("trial", "pose")}
     f1 = {"accuracy_mean_pct": ".2f", "accuracy_std_pct": ".2f", "accuracy_min_pct": ".2f", "train_s": ".2f",
@@ -347,7 +459,7 @@ Inference: `batch_us_per_sample` = best-of-5 time of predicting all test samples
 
 `pose` holds out whole sensor rotations: without augmentation the test rotations are unseen; the
 rotation augmentation must map trained rotations onto them, which works only with the physical pairing
-of index shift and vector rotation (`sense` from the design's camera model, `whisker.data.dataset.design_sense`).
+of index shift and vector rotation (`sense` from the design's camera model, `whisker.data.dataset_files.design_sense`).
 
 {markdown_table(sim_rows, ["rotation_pairing", "protocol", "accuracy_mean_pct", "accuracy_std_pct", "n_train", "n_test"], f1) if sim_rows else "(skipped: simulator not available)"}
 
@@ -373,6 +485,32 @@ Contact pattern: % of samples in which each record moves each whisker by more th
 symmetric under the array's turns would move a set shifted by 2 whiskers from one direction to the next):
 
 {markdown_table(pattern, ["record"] + [f"w{w}" for w in range(peer.n_whiskers)])}
+
+## 7. Why whole held-out trials stop near 95 % (the issue asks 97 %)
+
+Each object was recorded in 5 trials of 36 orientations; the `trial` protocol holds out 2 of them per
+object. Accuracy of each (object, trial) over the splits that held it out (polar features + RBF SVM,
+the {len(SEEDS)} trial splits of section 5), the trials below 97 %:
+
+{markdown_table([r for r in trial_rows if r["accuracy_pct"] < 97], ["object", "trial", "times_held_out", "accuracy_pct"], {"accuracy_pct": ".1f"})}
+
+{len(ceiling["odd"])} trials ({", ".join(f"{o} {t}" for o, t in ceiling["odd"])}) are not recognised even when every
+other trial of every object is in the training set, whatever the features (per-sample magnitude
+normalisation, directions only, a temporal summary of the 8 records, the cyclic-invariant DFT) or the
+model (SVM, trees, MLP, their soft-voting ensemble):
+
+{markdown_table(odd_rows, list(odd_rows[0]), {k: ".1f" for k in odd_rows[0] if k.endswith("%")})}
+
+Their samples resemble another object's more than their own object's other trials (the object sat
+differently in that trial: e.g. the cherry's trial 4 moves the whiskers more than its other four). Even
+with every other held-out sample right and these trials at their best leave-out accuracy above
+({"; ".join(f"{k}: {v}" for k, v in ceiling["best_by"].items())}), the mean over the {len(SEEDS)} splits could
+reach at most **{ceiling["ceiling_mean"]:.2f} %**. The SVM reaches {ceiling["svm_mean"]:.2f} % with them and **{ceiling["without_mean"]:.2f} %** on the
+other held-out trials; with those errors as well, about {ceiling["ceiling_mean"] - (100 - ceiling["without_mean"]):.1f} % is within reach, and only by one model
+that is as good as the SVM on the ordinary trials and as good as the best above on these two. None of
+the tried ones is: the model best on them holds out whole trials at {_beyond_acc(beyond, ceiling["best_by"])} (section 5), and the
+soft-voting ensemble loses on them what the MLP gains. 97 % on whole held-out trials needs recordings that
+cover how an object can sit (more trials per object), not another model.
 
 ![accuracy vs cost, protocols](classify.png)
 """

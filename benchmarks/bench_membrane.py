@@ -33,7 +33,9 @@ from whisker.mechanics import membrane as M  # noqa: E402
 from whisker.mechanics.materials import silicone_for  # noqa: E402
 
 SIZES = (4.0, 3.0, 2.5, 2.0, 1.5)
-PAPER = ("membrane.inscribed_radius=16", "coil.turns=600", "coil.resistance=7")
+# the paper's sensor: its membrane and coil, the gap this project assumed for it, and no end stop
+PAPER = ("membrane.inscribed_radius=16", "coil.turns=600", "coil.resistance=7", "actuation.gap=2.5",
+         "actuation.end_stop=false")
 
 
 def paper_rows(d_default) -> list[dict]:
@@ -41,19 +43,25 @@ def paper_rows(d_default) -> list[dict]:
     from whisker.coil import current_A, equilibrium
 
     rows = []
-    for label, d in (("paper's sensor: 16 mm membrane, 600 turns, 7 ohm", default_design(*PAPER)),
-                     ("default design: 19.5 mm membrane, 370 turns (bobbin)", d_default)):
+    for label, sets in (("paper's sensor: 16 mm membrane, 600 turns, 7 ohm, 2.5 mm gap, no stop", PAPER),
+                        ("default design: 19.5 mm membrane, 370 turns (bobbin)", ())):
+        d = default_design(*sets) if sets else d_default
         i = current_A(d, d.actuation.voltage)
         for mode, k in (("all driven", M.rotational_stiffness_Nmm_per_rad(d)),
                         ("one driven", M.single_whisker_stiffness_Nmm_per_rad(d))):
             eq = equilibrium(d, i, stiffness_Nmm_per_rad=k)
             v_pull = eq.pull_in_current_A * d.coil.resistance if eq.pull_in_current_A else math.inf
-            tilt = f"{eq.theta_deg:.1f}" if eq.stable else f"snaps (pull-in {v_pull:.2f} V)"
+            if eq.at_stop:   # the stop holds it: say so, and where the free whisker would have snapped
+                free = equilibrium(default_design(*sets, "actuation.end_stop=false"), i, stiffness_Nmm_per_rad=k)
+                fv = free.pull_in_current_A * d.coil.resistance if free.pull_in_current_A else math.inf
+                tilt = f"{eq.theta_deg:.1f} on the end stop (without it: pull-in {fv:.2f} V)"
+            else:
+                tilt = f"{eq.theta_deg:.1f}" if eq.stable else f"snaps (pull-in {v_pull:.2f} V)"
             rows.append({"sensor": label, "whiskers driven": mode, "k_Nmm_per_rad": round(k, 3),
                          "tilt_at_3V_deg": tilt, "authors_deg": "~15"})
     from whisker.coil import fit_stiffness
     for turns in (600, 413):   # the paper's turns, and the turns its 7 ohm implies (docs/coil.md)
-        d = default_design(PAPER[0], f"coil.turns={turns}", "coil.resistance=7")
+        d = default_design(*PAPER[:1], f"coil.turns={turns}", *PAPER[2:])
         k = fit_stiffness(d, [(3.0, 15.0)])["rotational_stiffness_Nmm_per_rad"]
         rows.append({"sensor": f"paper's sensor with {turns} turns, 7 ohm", "whiskers driven": "-",
                      "k_Nmm_per_rad": round(k, 3), "tilt_at_3V_deg": "15.0: the k the authors' frame implies "

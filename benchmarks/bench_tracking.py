@@ -35,7 +35,8 @@ from common import machine_line, markdown_table, save_figure, write_csv, write_t
 from whisker.vision import geometry  # noqa: E402
 from whisker.vision import render  # noqa: E402
 from whisker.design import default_design  # noqa: E402
-from whisker.vision.tracking import METHODS, REDNESS_THRESHOLD, Tracker  # noqa: E402
+from whisker.vision.markers import METHODS, REDNESS_THRESHOLD  # noqa: E402
+from whisker.vision.tracking import Tracker  # noqa: E402
 
 FRAMES = 30
 ROUNDS = 3

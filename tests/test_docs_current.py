@@ -51,3 +51,38 @@ def test_the_check_names_the_file_and_what_differs(tmp_path, monkeypatch):
 def test_stamp_refuses_bad_design_arguments(tmp_path, args):
     with pytest.raises((ValueError, IndexError)):
         P._split_args(args)
+
+
+def _docs_mk() -> str:
+    return (P.ROOT / "mk" / "docs.mk").read_text()
+
+
+def test_make_docs_runs_every_benchmark():
+    """`make docs` has a group for every benchmarks/bench_*.py (bench_states runs in docs-states), and
+    names the files each one writes."""
+    import re
+
+    text = _docs_mk().replace("\\\n", " ")
+    bench = set(re.search(r"^DOCS_BENCH \?=(.*)$", text, re.M).group(1).split())
+    have = {p.stem[len("bench_"):] for p in (P.ROOT / "benchmarks").glob("bench_*.py")} - {"states"}
+    assert bench == have, f"make docs misses {sorted(have - bench)}, names unknown {sorted(bench - have)}"
+    for b in sorted(bench):
+        assert re.search(rf"^DOCS_BENCH_FILES_{b} =\s*\S", text, re.M), f"mk/docs.mk: no DOCS_BENCH_FILES_{b}"
+
+
+def test_every_generated_file_has_a_generator_in_make_docs():
+    """Each generated figure and table is named by a group of mk/docs.mk (its path, its name in a
+    benchmark's file list, or a glob), so `make docs` can remake it; hand-made files are listed with a reason."""
+    import fnmatch
+    import re
+
+    text = _docs_mk()
+    words = set(re.split(r"[\s\"']+", text))
+    globs = [w for w in words if "*" in w]
+    orphans = [rel for rel in P.generated_files()
+               if rel not in words and not (rel.startswith("benchmarks/results/") and rel.split("/")[-1] in words)
+               and not any(fnmatch.fnmatch(rel, g) for g in globs)]
+    assert not orphans, f"no group of mk/docs.mk makes {orphans}: add a generator or list it in NOT_GENERATED"
+    for rel, why in P.NOT_GENERATED.items():
+        assert (P.ROOT / rel).is_file() and why.strip(), rel
+        assert rel not in P.load(), f"{rel} is listed as hand-made but carries a stamp"

@@ -229,3 +229,23 @@ def test_task_cache_keeps_inf_and_treats_a_broken_file_as_missing(tmp_path):
     assert c.get("d1", "design.json") == {"time_to_limit_s": math.inf, "held": [True, False], "limit": "PLA softening"}
     (tmp_path / "d1" / "broken.json").write_text('{"value": [tru')
     assert c.get("d1", "broken.json") is None and c.get("d2", "design.json") is None
+
+
+def test_grid_markdown_lays_a_two_or_three_key_study_out_as_tables():
+    """grid.md (docs/explore_grid.md): rows = the first --vary key, columns = the second, one table per
+    value of the third; a cell is all [95 %] / half / pair, a design that did not run shows its status;
+    the same grid from the study's numbers and from results.csv's strings."""
+    from whisker.explore.report import grid_markdown
+
+    varied = ["whiskers.count", "whiskers.ring_radius", "actuation.voltage"]
+    rows = [{"whiskers.count": c, "whiskers.ring_radius": r, "actuation.voltage": v, "status": "ok",
+             "grasp_all_pct": 10.0 * c + r + v, "grasp_all_lo": 1.0, "grasp_all_hi": 99.0,
+             "grasp_half_pct": 5.0, "grasp_pair_pct": 0.0} for c in (4, 8) for r in (8, 10) for v in (2, 3)]
+    rows[0].update(status="refused", grasp_all_pct=float("nan"))
+    md = grid_markdown(rows, varied)
+    assert md.count("| voltage = ") == 2 and "| 8 | 10 |" in md
+    assert "| 4 | refused | 52 [1-99] / 5 / 0 |" in md                 # 4 whiskers at 2 V: 8 mm refused
+    assert "| 8 | 91 [1-99] / 5 / 0 | 93 [1-99] / 5 / 0 |" in md         # 8 whiskers at 3 V
+    as_text = [{k: str(v) for k, v in r.items()} for r in rows]
+    assert grid_markdown(as_text, varied) == md
+    assert grid_markdown(rows, varied[:1]) == ""

@@ -137,3 +137,24 @@ def test_cli_reads_a_recorded_session(tmp_path):
                                                                 for w in range(8)])
     res = run_cli("locate", str(tmp_path / "still"))
     assert res.returncode == 2 and "without actuation" in res.stderr
+
+
+def test_real_jitter_series_keeps_the_still_runs_only(tmp_path):
+    """peer_jitter_series on a file like the authors' airflow demo: the still runs, each minus its mean,
+    px -> rad by the marker lever; the moving part and its jumps are dropped."""
+    rng = np.random.default_rng(1)
+    t = np.arange(400) / 65.0
+    xy = rng.normal(0.0, 0.1, (400, 2))
+    xy[150:250] += np.linspace(0, 20, 100)[:, None]          # an air puff: the whisker moves 20 px
+    xy[250:] += 20.0                                          # and holds there
+    f = tmp_path / "air.csv"
+    f.write_text("Time,dx,dy\n" + "\n".join(f"{a},{b},{c}" for a, (b, c) in zip(t, xy)))
+    series, fps = S.peer_jitter_series(DESIGN, f)
+    px_per_rad = DESIGN.derived()["l_l_mm"] / DESIGN.derived()["mm_per_px"]
+    assert fps == pytest.approx(65.0, rel=1e-6)
+    assert 200 <= len(series) < 400 and np.abs(series).max() * px_per_rad < 1.0
+    assert series[:, 0].std() * px_per_rad == pytest.approx(0.1, rel=0.2)
+    blocks = S.draw_noise(series, 100, np.random.default_rng(0), block=10)
+    assert blocks.shape == (100, 2)
+    i = int(np.flatnonzero((series == blocks[0]).all(axis=1))[0])
+    assert np.array_equal(blocks[:10], series[i:i + 10])      # a block is a run of consecutive frames

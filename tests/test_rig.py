@@ -116,9 +116,6 @@ def _pins(backend):
     return np.array([[f.pin(c.forward).state, f.pin(c.backward).state] for c in backend.channels], dtype=float)
 
 
-@pytest.mark.xfail(strict=False, reason="the same known regression as test_grasp_control's foam-ball test: with the "
-                   "end-stop design the closed loop's step-down after the lift lets whiskers go and the ball is lost "
-                   "(closing note)")
 def test_replay_gives_the_sim_paths_decisions_and_drives_the_bridges_forward(recording, tmp_path):
     seen = []
 

@@ -40,11 +40,17 @@ def test_end_to_end_tip_error_small_with_roi_tracker():
     assert cr.tip_rms_mm < 0.05 and cr.px_rms < 0.1
 
 
-@pytest.mark.xfail(strict=True, reason="changed premise with the end-stop design (11 deg stop): the markers' travel is smaller, so the paper's pipeline no longer loses small markers by twice the ROI tracker's tip error (0.42 against 0.32 mm); the test's scene must move the markers further (closing note)")
 def test_end_to_end_paper_pipeline_loses_small_markers_roi_does_not():
     """The paper's pipeline (10x10 erosion) erodes small dots (docs/tracking.md): on the paper's
     1.2 mm dots (~12 px) it loses the markers and refuses its rest calibration, while roi keeps every
-    one; on the calibrated 1.4 mm dots (~14 px) it keeps them, but its tips are several times worse."""
+    one; on the calibrated 1.4 mm dots (~14 px) it keeps them, but tracks them far worse.
+
+    The trackers are compared through the exact geometry (and in pixels): the paper's pixel-to-tip
+    conversion has an error of its own that grows with the tilt, and with the end-stop design these
+    drives take the whiskers to 10.7-11 deg, where that conversion alone is 0.32 mm off for a perfect
+    tracker (roi: 0.014 px); through it both trackers' tip errors are dominated by the same geometry
+    error (0.42 against 0.32 mm), which says nothing about the trackers (measured: 0.74 px against
+    0.014 px, 0.175 mm against 0.012 mm at the tips)."""
     from whisker.vision.tracking import CalibrationError
 
     s = _scene(method="paper", geometry="paper")
@@ -54,9 +60,13 @@ def test_end_to_end_paper_pipeline_loses_small_markers_roi_does_not():
     with pytest.raises(CalibrationError, match="rest frame"):
         camera_run(s, small, r)
     r = simulate(s, D)
-    roi = camera_run(_scene(geometry="paper"), D, r)
-    cr = camera_run(s, D, r)
-    assert roi.valid.mean() == 1.0 and cr.tip_rms_mm > 2 * roi.tip_rms_mm
+    roi = camera_run(_scene(), D, r)
+    cr = camera_run(_scene(method="paper"), D, r)
+    assert roi.valid.mean() == 1.0 and cr.valid.mean() > 0.9
+    assert cr.px_rms > 10 * roi.px_rms and cr.tip_rms_mm > 5 * roi.tip_rms_mm
+    # through the paper's geometry the shared conversion error dominates: still worse, not several times
+    roi_p, cr_p = camera_run(_scene(geometry="paper"), D, r), camera_run(s, D, r)
+    assert cr_p.tip_rms_mm > roi_p.tip_rms_mm > 10 * roi.tip_rms_mm
 
 
 def test_camera_pruned_when_off_or_nothing_asked():

@@ -24,20 +24,35 @@ BODY = whisker_body(D)
 BALL = {"name": "foam ball", "shape": "sphere", "size": [7.0], "mass": 0.15, "friction": 0.8}
 
 
-@pytest.mark.xfail(strict=True, reason="known regression of this release: with the membrane model's softer 0.507 N mm/rad and the 11 deg stop, the pruned and the full MuJoCo model differ by up to 0.097 deg against the test's 0.06 deg; not yet traced (closing note)")
 def test_pruned_contact_equals_full_model_without_objects():
-    """No objects: the own integrator (contact pruned) matches MuJoCo (contact forced on)."""
-    base = {"scene": {"duration": 0.4, "timestep": 2e-4}, "sensor": {"facing": "down"},
-            "actuation": {"schedule": [{"t": 0.05, "level": 1.0}, {"t": 0.25, "level": -0.5}]},
-            "fidelity": {"heating": "off"}}
+    """No objects: the own integrator (contact pruned) matches MuJoCo (contact forced on) up to the
+    two first-order integrators' discretisation error, and the difference halves with the timestep
+    (so it is the time step, not a modelling difference: the same stiffness, damping, pull and stop).
+
+    The bound is the first-order step error's scale, omega_n dt x the swing's amplitude (omega_n =
+    sqrt(k/J), whisker.coil.kinematics). With the membrane model's 0.507 N mm/rad and the 1.9 mm gap,
+    1 V swings the whisker ~16 deg peak to peak (it was ~5 deg with 0.836 N mm/rad and the old gap,
+    where a fixed 0.06 deg held); the stop (11 deg) is not reached (measured 0.097 deg at 2e-4 s,
+    0.049 at 1e-4 s)."""
+    def run(dt):
+        base = {"scene": {"duration": 0.4, "timestep": dt}, "sensor": {"facing": "down"},
+                "actuation": {"schedule": [{"t": 0.05, "level": 1.0}, {"t": 0.25, "level": -0.5}]},
+                "fidelity": {"heating": "off"}}
+        a = simulate(scene_from_dict(base), d1)
+        full = scene_from_dict({**base, "fidelity": {"heating": "off", "contact": "on"}, "table": {"enabled": False},
+                                "contact": {"chunk": 1}})
+        b = simulate(full, d1)
+        assert a.plan.solver == "free" and b.plan.solver == "mujoco"
+        return a, float(np.abs(a.theta_deg - b.theta_deg).max())
+
     d1 = default_design("drive.full_scale_voltage=1.0")              # level 1 = 1 V at the coil
-    a = simulate(scene_from_dict(base), d1)
-    full = scene_from_dict({**base, "fidelity": {"heating": "off", "contact": "on"}, "table": {"enabled": False},
-                            "contact": {"chunk": 1}})
-    b = simulate(full, d1)
-    assert a.plan.solver == "free" and b.plan.solver == "mujoco"
-    assert np.ptp(a.theta_deg[:, 0, 0]) > 2.0
-    assert np.abs(a.theta_deg - b.theta_deg).max() < 0.06     # deg, of a ~5 deg swing (measured 0.044)
+    dt = 2e-4
+    a, err = run(dt)
+    swing = float(np.ptp(a.theta_deg[:, 0, 0]))
+    assert swing > 2.0 and np.abs(a.theta_deg).max() < math.degrees(BODY.stop_rad)    # free swing, off the stop
+    assert err < BODY.omega_n * dt * swing / 2                       # deg: first-order step error scale
+    _, err_half = run(dt / 2)
+    assert 0.35 < err_half / err < 0.65                              # first order: halves with the step
 
 
 def test_mujoco_joint_axes_match_kinematics():
@@ -107,8 +122,18 @@ def test_hard_contact_cases_stay_finite_and_bounded(case):
     bound = 8 * 2 * (0.5 * BODY.stiffness * BODY.stop_rad ** 2 + 1e-3 * BODY.stop_rad)
     assert r.energy_J.max() < bound
     assert np.abs(r.objects_mm[:, 0, :2]).max() < 200                # nothing flies away
-    # (zero friction used to mean "not lifted"; with the 11 deg end stop the eight tips close below the
-    # ball's equator and cage it, so a frictionless lift is possible: only finiteness and bounds are asserted)
+    if case == "zero_friction":
+        # Frictionless tips cannot hold the ball where friction does (at the tips, its centre within a
+        # radius of them): squeezed below its equator it pops up into the cone of rods (a melon seed)
+        # and the tips, which cross the axis at the 11 deg stop, close under it. So it ends either
+        # back on the table or caged above the closed tips, inside the sensor's reach (below the
+        # membrane); the deterministic centred placement here cages it (~42 mm above the tips).
+        radius = obj["size"][0]
+        above_tips = r.objects_mm[-1, 0, 2] - r.sensor_pose[-1, 2]   # mm, ball centre above the tip plane
+        on_table = abs(r.objects_mm[-1, 0, 2] - radius) < 1.0
+        caged = (above_tips > radius and above_tips < D.l_u
+                 and np.all(r.theta_deg[-1, :, 0] > math.degrees(BODY.stop_rad) - 0.5))
+        assert on_table or caged, (r.objects_mm[-1, 0], r.sensor_pose[-1], r.theta_deg[-1, :, 0])
 
 
 def test_large_time_step_refused_with_reason():

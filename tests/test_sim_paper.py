@@ -47,9 +47,9 @@ def test_classification_sample_layout_128_ints():
 
 
 def test_dataset_json_gives_the_loader_trial_ids(tmp_path):
-    """The classification run writes dataset.json: whisker.data.dataset.load_csv_folder then knows the trial
+    """The classification run writes dataset.json: whisker.data.dataset_files.load_csv_folder then knows the trial
     and pose (sensor rotation) of each row without being told."""
-    dataset = pytest.importorskip("whisker.data.dataset", reason="whisker.data.dataset (issue 9) not installed")
+    from whisker.data import dataset_files as dataset
     from whisker.sim.runner import run_scene
 
     s = load_scene(SCENES / "classification.toml")
@@ -155,24 +155,34 @@ def test_small_grasp_table_has_intervals_and_order(tmp_path):
     assert paper.grasp_csv(tab).splitlines()[0].split(",")[3:6] == ["success_pct_sim", "ci95_low_pct", "ci95_high_pct"]
 
 
-@pytest.mark.xfail(strict=True, reason="changed by the end-stop design of issue 27 (11 deg stop, 1.9 mm gap, the "
-                   "membrane model's stiffness): the 100-placement table has 4 placements where fewer whiskers hold "
-                   "and more drop, against at most 1; the table is to be re-run and its ordering rule revisited "
-                   "(closing note)")
 def test_grasp_table_of_the_paper_scene_is_ordered_for_every_object():
-    """Issue 8's acceptance, as far as the coil that fits the former allows: the committed grasp scene
-    (100 common placements per object) gives 8 >= 4 >= 2 whiskers for every object, strictly where the
-    fewer whiskers hold anything, 8 > 4 > 2 strictly in the totals, and no placement where fewer whiskers
-    hold and more drop except at most one. (With the 600-turn coil, which cannot be wound, the order was
-    strict for every object; the wound coil's grip (about 0.7x) leaves several 4-whisker cells at 0 %, so 4 = 2
-    there: docs/sim.md.) Deterministic (seeded placements, single-threaded MuJoCo); ~2 min.
-    Rigid contacts (fidelity.compliance = 'off'): the model of issue 8, unchanged by issue 18's
-    compliant contact (test_sim_compliant runs the compliant table)."""
+    """Issue 8's acceptance: the committed grasp scene (100 common placements per object) gives
+    8 >= 4 >= 2 whiskers for every object, strictly where the fewer whiskers hold anything, 8 > 4 > 2
+    strictly in the totals, and, placement for placement, more whiskers hold what fewer hold: the
+    placements where fewer hold and more drop are at most 5 % of the reverse, pooled over the objects
+    for each pair, and the pooled one-sided McNemar test resolves the order (p < 1e-6).
+
+    Why not "at most one such placement", as before the end stop (issue 27): with the 11 deg stop and
+    the 1.9 mm gap the free whiskers pull in onto the stop at the grasp level, so they close with a
+    snap and strike the object at speed instead of closing quasi-statically. The first tips to
+    arrive can kick an off-centre object before the opposite ones meet it (the 0.15 g foam ball ends
+    50-120 mm away in 6 of its first 8 placements with 8 whiskers: 35 % held, docs/sim.md), and
+    which tips arrive first depends on the configuration, so a placement that four whiskers hold and
+    eight drop is physics, not a fault (100-placement table: 1 of 228 for 8 vs 4, 3 of 140 for 4 vs 2).
+    Deterministic (seeded placements drawn before the attempts, one MuJoCo model per attempt, the
+    same table for any joblib worker count). Rigid contacts (fidelity.compliance = 'off'): the model
+    of issue 8, unchanged by issue 18's compliant contact (test_sim_compliant runs the compliant table)."""
+    from scipy.stats import binomtest
+
     s = scene_with_overrides(load_scene(SCENES / "grasp.toml"), ["fidelity.compliance=off"])
-    tab = paper.grasp_table(s, D)
+    tab = paper.grasp_table(s, D, n_jobs=2)
     assert tab["attempts"] == 100 and len(tab["rates"]) == 5
     for name, (r8, r4, r2) in tab["rates"].items():
         assert r8 > r4 >= r2, (name, tab["rates"][name], tab["paired"][name])
         assert r4 == 0 or r4 > r2, (name, tab["rates"][name])
-    assert sum(c["losses"] for p in tab["paired"].values() for c in p) <= 1
+    for pair in range(2):
+        wins = sum(p[pair]["wins"] for p in tab["paired"].values())
+        losses = sum(p[pair]["losses"] for p in tab["paired"].values())
+        assert losses <= 0.05 * wins, (pair, wins, losses, tab["paired"])
+        assert binomtest(wins, wins + losses, 0.5, alternative="greater").pvalue < 1e-6
     assert tab["totals"][0] > tab["totals"][1] > tab["totals"][2]

@@ -8,7 +8,8 @@ import pytest
 from whisker.vision import geometry
 from whisker.vision import render
 from whisker.design import default_design
-from whisker.vision.tracking import METHODS, CalibrationError, Tracker, assign, load_calibration, load_mask
+from whisker.vision.markers import METHODS, assign, load_calibration, load_mask
+from whisker.vision.tracking import CalibrationError, Tracker
 
 D = default_design()
 BIG = default_design("coil.marker_diameter=1.9")  # ~20 px red discs, the size the paper's 10x10 erosion needs

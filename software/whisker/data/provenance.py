@@ -28,18 +28,25 @@ MANIFEST = ROOT / "docs" / "generated.json"
 
 
 #: the generated files (globs relative to the repository): every one must carry a current stamp
-GENERATED = ("docs/images/**/*.png", "docs/images/**/*.jpg", "docs/images/**/*.csv", "docs/images/*.json", "docs/sweep_table.md",
+GENERATED = ("docs/images/**/*.png", "docs/images/**/*.jpg", "docs/images/**/*.csv", "docs/images/*.json", "docs/*_table.md",
              "docs/tracking_real.md",
              "benchmarks/results/*.md", "benchmarks/results/*.csv", "benchmarks/results/*.png",
              "benchmarks/results/*.json")
 
 
+#: files matching GENERATED that no generator makes (photos, hand drawings), each with the reason: the
+#: check lists them apart instead of asking for a stamp. Empty today -- every picture under docs/images is
+#: rendered from the design (`make docs` names the generator of each; tests/test_docs_current.py checks that)
+NOT_GENERATED: dict[str, str] = {}
+
+
 def generated_files(root: Path = ROOT) -> list[str]:
-    """The repository's generated figures and tables that exist now (relative paths, sorted)."""
+    """The repository's generated figures and tables that exist now (relative paths, sorted), without
+    the hand-made files of NOT_GENERATED."""
     out = set()
     for g in GENERATED:
         out |= {str(p.relative_to(root)) for p in root.glob(g) if p.is_file()}
-    return sorted(out)
+    return sorted(out - set(NOT_GENERATED))
 
 
 def model_numbers(design) -> dict:
@@ -179,6 +186,10 @@ def main(argv=None) -> int:
     bad = problems(expected=generated_files())
     for line in bad:
         print(line)
+    for rel, why in sorted(NOT_GENERATED.items()):
+        print(f"{rel}: not generated ({why}); no stamp needed", file=sys.stderr)
+    print(f"{len(generated_files())} generated file(s), {len(bad)} problem(s), {len(NOT_GENERATED)} hand-made file(s)",
+          file=sys.stderr)
     return 1 if bad else 0
 
 

@@ -27,26 +27,35 @@ class Contact:
     """An object pushing whisker `whisker`'s tip from start_s to end_s (simulated s) until its radial
     tilt reaches tilt_deg (+ = the retraction side, - = extension; the simulated camera renders the
     radial tilt): a one-sided wall 50x the membrane's stiffness, as
-    whisker.sim.experiments.state_sequences."""
+    whisker.sim.experiments.state_sequences. With ``r_mm`` the object holds the rod r_mm from the pivot
+    instead of at the tip, and the wall's stiffness is the rod's bending between pivot and contact,
+    3 EI / r (Euler-Bernoulli, a moment at the pivot, the rod pinned at r: what `whisker locate` reads)."""
     whisker: int
     start_s: float
     end_s: float
     tilt_deg: float
+    r_mm: float | None = None
 
     @staticmethod
     def parse(text: str) -> "Contact":
-        """W:START-END:DEG, e.g. 0:2-4:5 (whisker 0 pushed to 5 deg from 2 s to 4 s)."""
+        """W:START-END:DEG[@MM], e.g. 0:2-4:5 (whisker 0 pushed to 5 deg from 2 s to 4 s) or 0:2-4:5@30
+        (the same, the object touching the rod 30 mm from the pivot)."""
+        text, sep, at = text.partition("@")
         try:
+            r_mm = float(at) if sep else None
+            if r_mm is not None and not (math.isfinite(r_mm) and r_mm > 0):
+                raise ValueError
             parts = text.split(":")
             if len(parts) != 3:
                 raise ValueError
             w, deg = int(parts[0]), float(parts[2])
             a, b = (float(x) for x in parts[1].split("-"))
         except (ValueError, IndexError):
-            raise ValueError(f"contact {text!r}: expected WHISKER:START-END:DEG, e.g. 0:2-4:5") from None
+            raise ValueError(f"contact {text!r}: expected WHISKER:START-END:DEG[@MM], e.g. 0:2-4:5 or 0:2-4:5@30 "
+                             "(MM > 0)") from None
         if not all(math.isfinite(v) for v in (a, b, deg)) or not 0 <= a < b or not 0 < abs(deg) <= 45:
             raise ValueError(f"contact {text!r}: need 0 <= START < END (s) and 0 < |DEG| <= 45, all finite")
-        return Contact(w, a, b, deg)
+        return Contact(w, a, b, deg, r_mm)
 
 
 class SimBackend:
@@ -77,19 +86,35 @@ class SimBackend:
         """Schedule an object pushing whisker tips (see `Contact`); times in simulated seconds."""
         if not 0 <= contact.whisker < self.n:
             raise ValueError(f"contact whisker {contact.whisker} is not one of the design's 0-{self.n - 1}")
+        if contact.r_mm is not None and contact.r_mm > self.design.whiskers.protrusion:
+            raise ValueError(f"contact at {contact.r_mm:g} mm is beyond the rod's {self.design.whiskers.protrusion:g} mm")
         self.contacts.append(contact)
 
     def _contact_torque(self) -> np.ndarray:
         tau = np.zeros((self.n, 2))
-        k, c = self._wall
         for ct in self.contacts:
             if not ct.start_s <= self.t_sim < ct.end_s:
                 continue
+            k, c = self._wall_of(ct)
             w, sign = ct.whisker, math.copysign(1.0, ct.tilt_deg)
             pen = math.radians(abs(ct.tilt_deg)) - sign * float(self.theta[w, 0])
             if pen > 0:
                 tau[w, 0] += sign * max(k * pen - c * sign * float(self.omega[w, 0]), 0.0)
         return tau
+
+    def _wall_of(self, ct: "Contact") -> tuple[float, float]:
+        """(stiffness N*m/rad, damping N*m*s/rad) of a contact: the stiff wall, or the rod held at r_mm."""
+        if ct.r_mm is None:
+            return self._wall
+        from whisker.mechanics.membrane import rod_bending_stiffness_Nmm2
+
+        k = 3.0 * rod_bending_stiffness_Nmm2(self.design) / ct.r_mm * 1e-3      # N*mm/rad -> N*m/rad
+        return k, 2 * 0.5 * math.sqrt(k * self.body.inertia_kgm2)
+
+    def _substeps(self) -> int:
+        """Sub-steps per dt that keep the explicit contact force stable (omega_n dt <= 0.5)."""
+        k = max((self._wall_of(ct)[0] for ct in self.contacts), default=0.0)
+        return max(1, math.ceil(self.dt * math.sqrt(k / self.body.inertia_kgm2) / 0.5))
 
     # --- contract -----------------------------------------------------------------------------
     def set_levels(self, levels) -> None:
@@ -132,14 +157,16 @@ class SimBackend:
             return
         I = np.asarray(coil_current_A(self.design, self.levels * self.volts_full_scale, 20.0), dtype=float)   # mean current of the PWM
         t_end = self.t_sim + steps * self.dt
-        for k in range(steps):
+        sub = self._substeps() if self.contacts else 1
+        h = self.dt / sub
+        for k in range(steps * sub):
             tau = gravity_torque(self.body, self.theta, self.facing)
             if self.contacts:
-                self.t_sim = t_end - (steps - k) * self.dt
+                self.t_sim = t_end - (steps * sub - k) * h
                 tau = tau + self._contact_torque()
             if np.any(I != 0):
                 tau[:, 0] += magnetic_torque(self.design, self.body, self.theta[:, 0], I, self.model)
-            self.theta, self.omega = step_free(self.body, self.theta, self.omega, tau, self.dt)
+            self.theta, self.omega = step_free(self.body, self.theta, self.omega, tau, h)
         self.t_sim = t_end
 
     def angles_deg(self) -> np.ndarray:

@@ -136,12 +136,58 @@ def design_file_text(base_text: str, overrides: tuple[str, ...], header: str) ->
     return "".join(f"# {line}\n" for line in header.splitlines()) + text
 
 
+def grid_markdown(rows: list[dict], varied: list[str]) -> str:
+    """For a study of two or three --vary keys: grasp success as a grid, rows = the first key, columns
+    = the second, one table per value of the third: "all [95 % interval] / half / pair" (% pooled over
+    the objects; every whisker, every second one, one opposite pair: 8/4/2 whiskers for an 8-whisker
+    design). Rows may come from results.csv (strings) or from the study (numbers). "" otherwise."""
+    if len(varied) not in (2, 3):
+        return ""
+
+    def num(v):
+        try:
+            return float(v)
+        except (TypeError, ValueError):
+            return math.nan
+
+    def key(v):
+        f = num(v)
+        return (0, f) if math.isfinite(f) else (1, str(v))
+
+    a, b = varied[0], varied[1]
+    tables = sorted({str(r[varied[2]]) for r in rows}, key=key) if len(varied) == 3 else [None]
+    out = []
+    for t in tables:
+        sub = [r for r in rows if t is None or str(r[varied[2]]) == t]
+        cols = sorted({str(r[b]) for r in sub}, key=key)
+        head = f"{varied[2].split('.')[-1]} = {t}: " if t is not None else ""
+        out += [f"| {head}{a.split('.')[-1]} \\ {b.split('.')[-1]} | " + " | ".join(cols) + " |",
+                "|---|" + "---|" * len(cols)]
+        for av in sorted({str(r[a]) for r in sub}, key=key):
+            cells = []
+            for bv in cols:
+                r = next((x for x in sub if str(x[a]) == av and str(x[b]) == bv), None)
+                if r is None or str(r.get("status")) != "ok" or not math.isfinite(num(r.get(SUCCESS))):
+                    cells.append("-" if r is None else str(r.get("status")))
+                    continue
+                extra = "".join(f" / {num(r[f'grasp_{k}_pct']):.0f}" for k in ("half", "pair")
+                                if math.isfinite(num(r.get(f"grasp_{k}_pct"))))
+                cells.append(f"{num(r[SUCCESS]):.0f} [{num(r['grasp_all_lo']):.0f}-{num(r['grasp_all_hi']):.0f}]{extra}")
+            out.append(f"| {av} | " + " | ".join(cells) + " |")
+        out.append("")
+    return "\n".join(out)
+
+
 def write(out: Path, rows: list[dict], points, varied: list[str], base_text: str, summary: str,
           base_digest: str = "") -> list[Path]:
-    """results.csv, pareto_*.png, pareto/*.toml (stale ones removed), summary.md; returns the paths.
+    """results.csv, grid.md (2-3 varied keys), pareto_*.png, pareto/*.toml (stale ones removed), summary.md;
+    returns the paths.
     ``base_digest``: the design without the --vary values (marked in the plots when in the grid)."""
     out.mkdir(parents=True, exist_ok=True)
     paths = [atomic_write_text(out / "results.csv", results_csv(rows, varied))]
+    grid = grid_markdown(rows, varied)
+    if grid:
+        paths.append(atomic_write_text(out / "grid.md", grid))
     chosen: dict[int, list[str]] = {}
     lines = [summary, ""]
     for x, xlabel, what, fname in FRONTS:

@@ -350,3 +350,10 @@ def main() -> None:  # pragma: no cover - `make membrane`
 
 if __name__ == "__main__":  # pragma: no cover
     main()
+
+
+def rod_bending_stiffness_Nmm2(design) -> float:
+    """EI of the whisker's rod, N*mm^2: E (``mechanics.rod_modulus``, GPa -> N/mm^2) x pi d^4 / 64
+    (solid round section, d = ``whiskers.rod_diameter``)."""
+    d = design.whiskers.rod_diameter
+    return design.mechanics.rod_modulus * 1e3 * math.pi * d ** 4 / 64.0

@@ -51,37 +51,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Int8MultiArray, MultiArrayDimension, String
 from std_srvs.srv import SetBool, Trigger
 
-#: node parameters: name -> (default, description with units)
-PARAMETERS = {
-    "design_file": ("", "design TOML file ('' = the default design, hw/sensor.toml)"),
-    "design_set": ([""], "design overrides SECTION.KEY=VALUE (as --set)"),
-    "source": ("auto", "camera: auto (picamera on a Raspberry Pi, else sim), sim, picamera, a camera index, "
-                       "a video file or an image folder"),
-    "backend": ("auto", "coils: auto (gpio on a Raspberry Pi, else sim), sim, mock, gpio"),
-    "tracker": ("roi", "marker tracking method: paper, contour, blob, roi, fit (docs/tracking.md)"),
-    "method": ("adaptive", "state estimator: adaptive or authors (docs/states.md)"),
-    "fps": (15.0, "frame rate of the sim camera, frames/s"),
-    "rest_frames": (5, "first frames (whiskers untouched) that set the tracker's rest baseline"),
-    "policy": ("derate", "thermal guard policy: derate or cut"),
-    "prefix": ("whisker_", "prefix of the joint and frame names"),
-    "levels": ([0.0], "coil levels, signed PWM duty per whisker, + = retract; setting it drives the coils"),
-    "sequence": ("voltage_sweep", "coil sequence for ~/run_sequence: a TOML file or a shipped example name"),
-    "grasp.config": ("all", "whiskers of the grasp: all, every-second, opposite or K"),
-    "grasp.descend_mm": (5.0, "grasp: descent to the grasp height, mm (the rest is learned meanwhile)"),
-    "grasp.descend_s": (0.5, "grasp: seconds of the descent"),
-    "grasp.lift_mm": (0.0, "grasp: lift after the grip, mm (0: the robot lifts)"),
-    "grasp.lift_s": (0.5, "grasp: seconds of the lift"),
-    "grasp.hold_s": (0.0, "grasp: seconds of the hold, then release (0: hold until ~/release)"),
-    "grasp.max_gap_frames": (2.5, "grasp: abort (coils off) when frames are further apart than this many periods"),
-    "sim_contact.whiskers": ([0], "~/sim_contact: whiskers the simulated object touches"),
-    "sim_contact.reach_deg": (6.0, "~/sim_contact: tilt the object pushes them to, deg (radially in)"),
-    "sim_dt": (0.002, "backend sim: integration step, s (omega_n dt = 0.17 for the default design with the implicit "
-                      "integrator; 0.0005, SimBackend's default, costs more than real time with the coils on)"),
-    "save_frames": ("", "folder: write every camera frame (PNG) and times.csv (file, time_s: camera time s, "
-                        "stamp_ns: the stamp of the frame's messages, ns)"),
-    "diagnostics_period": (1.0, "seconds between /diagnostics messages"),
-}
-
+from whisker.ros.joints import joint_quantities, quaternion
+from whisker.ros.parameters import PARAMETERS
 
 def _on_pi() -> bool:
     try:
@@ -218,7 +189,7 @@ class SensorNode(Node):
             t = TransformStamped()
             t.header.stamp, t.header.frame_id, t.child_frame_id = now, j.parent, j.child
             t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = j.origin.xyz
-            q = _quaternion(*j.origin.rpy)
+            q = quaternion(*j.origin.rpy)
             t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z, t.transform.rotation.w = q
             out.transforms.append(t)
         self.create_publisher(TFMessage, "/tf_static", qos).publish(out)
@@ -436,17 +407,7 @@ class SensorNode(Node):
         """One frame's messages (see the module docstring for the conventions)."""
         n, pre = self.n, self.prefix
         hdr_stamp = stamp.to_msg()
-        theta = np.radians(np.asarray(geo.theta_deg, dtype=float))
-        tip = np.stack([geo.tip_x_mm, geo.tip_y_mm], axis=1)                     # tip moved, sensor xy, mm
-        r_tip = np.hypot(tip[:, 0], tip[:, 1])
-        inward = -np.sum(tip * self.radial, axis=1)                             # tip's move towards the centre
-        with np.errstate(invalid="ignore", divide="ignore"):
-            radial_tilt = np.where(r_tip > 1e-12, theta * inward / np.where(r_tip > 1e-12, r_tip, 1.0), 0.0)
-        f = np.stack([force.fx_mN, force.fy_mN, np.zeros(n)], axis=1) * 1e-3    # N, sensor axes
-        lever = np.stack([tip[:, 0], tip[:, 1], np.asarray(geo.tip_z_mm, float)], axis=1) * 1e-3   # pivot->tip, m
-        moment = np.cross(lever, f)                                              # N m about the pivot
-        axis = np.stack([self.radial[:, 1], -self.radial[:, 0], np.zeros(n)], axis=1)   # joint axis r x z
-        effort = np.sum(moment * axis, axis=1)
+        radial_tilt, effort, f, lever, moment = joint_quantities(geo, force, self.radial)
         ok = np.asarray(live.valid, bool) & np.isfinite(radial_tilt)
         self.tracked = int(ok.sum())
         js = JointState()
@@ -523,15 +484,6 @@ class SensorNode(Node):
         finally:
             self._thread.join(timeout=2.0)
             self.act.close()
-
-
-def _quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of the URDF rotation Rz(yaw) Ry(pitch) Rx(roll)."""
-    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
-    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
-    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
-            cr * cp * cy + sr * sp * sy)
 
 
 def spin(design=None, overrides: dict | None = None, args=None, duration_s: float | None = None,

@@ -7,17 +7,20 @@ controller answers with coil levels and an arm velocity (`Command`). Phases:
    the state estimator each whisker's rest position and noise. A whisker in contact here (before
    any actuation) aborts: coils off, arm up (fail safe, reason logged).
 2. ``close``    the configuration's coils at the paper's level. After `settle_s` (from the design's
-   whisker dynamics, :func:`settle_time_s`: ~76 ms, so the second frame at 15/s) a whisker holds the
+   whisker dynamics, :func:`settle_time_s`: ~98 ms, so the second frame at 15/s) a whisker holds the
    object when its displacement differs from the displacement its own coil alone would cause
    (`expected_px(level)`, the free closing in air) by more than the estimator's contact threshold
    (whisker.sensing.states.AdaptiveEstimator with the command's expected displacement). Grip when at
    least `quorum` of the active whiskers hold; none within `close_timeout_s`: release ("missed").
 3. ``tighten``  step down to the lowest level of the ladder full x step_factor^k (not below
-   min_fraction x full) whose free closing still lies beyond every holding whisker's measured
-   position by `margin_px` and by `keep_force` of the distance at full level, i.e. still presses on
-   the object with most of the full force (the coil heat falls with the level); after
-   `settle_s` a whisker that lost contact steps the level back up. `step_down = "top"` (default)
-   does this at the top of the lift, `"grip"` before the lift (less heat, more drops: docs/states.md).
+   min_fraction x full) that still presses every holding whisker on the object with `keep_force`
+   of the full level's force (the coil heat falls with the level): from the net closing torque at
+   the whisker's measured position when the map knows it (`expected_px.pressing_Nm`, the coil's
+   pull at that gap minus the membrane's spring), else from a linear-spring proxy (the free closing
+   `margin_px` and `keep_force` of the full level's distance beyond the held position); after
+   `settle_s` a whisker that lost contact brings the level back to the one that held before the
+   step-down. `step_down = "top"` (default) does this at the top of the lift, `"grip"` before the
+   lift (less heat, more drops: docs/states.md).
 4. ``lift``     arm up `lift_mm` in `lift_s`. Slip (in the lift and the hold): a holding whisker
    springs back toward its free closing (its distance from it shrinks below `slip_fraction` of the
    value at the start of the lift) or loses contact: re-grip at a higher level (as the thermal
@@ -145,6 +148,7 @@ class GraspController:
         self._lifted = 0.0
         self._applied = np.zeros(self.n)     # the levels the coils actually got (after the guard)
         self._derate_logged = False
+        self._level_before = params.full_level     # the level that held before a step-down
 
     # -- helpers ------------------------------------------------------------------------------
     def _enter(self, t: float, phase: str, reason: str = "") -> None:
@@ -256,9 +260,11 @@ class GraspController:
             if since < p.settle_s:
                 return Command(self._levels(self.level, t), 0.0, "tighten")
             lost = self._holding & ~contact
-            if lost.any() and self.level < p.full_level - 1e-9:
-                self.level = min(p.full_level, self.level / p.step_factor)
-                self._enter(t, "tighten", f"whisker {int(np.flatnonzero(lost)[0])} let go: level up to {self.level:.3f}")
+            if lost.any() and self.level < self._level_before - 1e-9:
+                # the step-down was too deep: back at once to the level that held (a rung at a time
+                # lets the object slide out during the settle times, one per rung)
+                self.level = self._level_before
+                self._enter(t, "tighten", f"whisker {int(np.flatnonzero(lost)[0])} let go: level back to {self.level:.3f}")
                 return Command(self._levels(self.level, t), 0.0, "tighten")
             self.log.hold_level = self.level
             if self._next == "lift":
@@ -298,6 +304,7 @@ class GraspController:
         raise AssertionError(f"unknown phase {self.phase}")      # pragma: no cover
 
     def _tighten(self, t: float, d: np.ndarray, then: str, why: str) -> Command:
+        self._level_before = self.level
         self.level = self._hold_level(d)
         self._next = then
         self._enter(t, "tighten", f"{why}; level {self.level:.3f}")
@@ -318,18 +325,40 @@ class GraspController:
         return bool(self.guard is not None and np.any(self.guard.tripped & self._holding))
 
     def _hold_level(self, d: np.ndarray) -> float:
-        """The lowest ladder level whose free closing is `margin_px` beyond every holding whisker."""
+        """The lowest ladder level that still presses every holding whisker on the object with
+        `keep_force` of the full level's force.
+
+        With a map that knows the pressing torque (`expected_px.pressing_Nm(level, d_px)`, e.g.
+        whisker.sim.experiments.closed_loop.FreeClosing): the net closing torque at each holding
+        whisker's measured position, tau(level) >= keep_force x tau(full). Otherwise the linear-spring
+        proxy: pressing ~ stiffness x (free closing - held position), i.e. a free closing `margin_px`
+        and `keep_force` of the full level's distance beyond every holding whisker. The proxy fails
+        where the magnet's pull grows steeply as the gap closes (pull-in onto an end stop): there the
+        free closing reaches the stop at a fraction of the full level while a whisker held at a wide
+        gap presses with far less (docs/states.md)."""
         p = self.p
-        # pressing ~ membrane stiffness x (free closing - held position): keep `keep_force` of it
-        held = np.linalg.norm(d, axis=1)
-        full = np.linalg.norm(self.expected(p.full_level), axis=1)
-        need = held + np.maximum(p.margin_px, p.keep_force * (full - held))
+        h = self._holding
+        pressing = getattr(self.expected_px, "pressing_Nm", None)
+        if pressing is not None:
+            tau_full = np.asarray(pressing(p.full_level, d), dtype=float)[h]
+            if not np.all(tau_full > 0):
+                return p.full_level          # a whisker not pressed on at full level: no margin to give away
+
+            def holds(lv):
+                return bool(np.all(np.asarray(pressing(lv, d), dtype=float)[h] >= p.keep_force * tau_full))
+        else:
+            held = np.linalg.norm(d, axis=1)
+            full = np.linalg.norm(self.expected(p.full_level), axis=1)
+            need = held + np.maximum(p.margin_px, p.keep_force * (full - held))
+
+            def holds(lv):
+                free = np.linalg.norm(self.expected(lv), axis=1)
+                return bool(np.all(free[h] >= need[h]))
         best = p.full_level
         lv = p.full_level
         while lv * p.step_factor >= p.min_fraction * p.full_level - 1e-12:
             lv *= p.step_factor
-            free = np.linalg.norm(self.expected(lv), axis=1)
-            if np.all(free[self._holding] >= need[self._holding]):
+            if holds(lv):
                 best = lv
             else:
                 break

@@ -55,9 +55,11 @@ class LocateError(ValueError):
 
 
 def bending_stiffness_Nmm2(design) -> float:
-    """EI of the rod, N*mm^2: E (``mechanics.rod_modulus``, GPa -> N/mm^2) x pi d^4 / 64."""
-    d = design.whiskers.rod_diameter
-    return design.mechanics.rod_modulus * 1e3 * math.pi * d ** 4 / 64.0
+    """EI of the rod, N*mm^2: E (``mechanics.rod_modulus``, GPa -> N/mm^2) x pi d^4 / 64
+    (whisker.mechanics.membrane.rod_bending_stiffness_Nmm2)."""
+    from whisker.mechanics.membrane import rod_bending_stiffness_Nmm2
+
+    return rod_bending_stiffness_Nmm2(design)
 
 
 def membrane_stiffness_Nmm_per_rad(design) -> tuple[float, str]:

@@ -10,7 +10,7 @@ from whisker.sim.run import finite_summary, plot_angles, png_bytes, tracks_csv, 
 from whisker.sim.simulate import simulate
 
 
-def run_scene(scene, design, plan, out: Path, progress=None) -> dict:
+def run_scene(scene, design, plan, out: Path, progress=None, jobs: int = 1) -> dict:
     """Simulate `scene` (its experiment if it has one); write the run folder; return the summary."""
     t0 = time.perf_counter()
     kind = scene.experiment.kind
@@ -69,7 +69,7 @@ def run_scene(scene, design, plan, out: Path, progress=None) -> dict:
         summary["headline"] = "angle vs voltage:\n" + ex.angle_table(r)
     else:
         from whisker.sim.experiments import paper
-        summary.update(paper.run(kind, scene, design, files, progress=progress))
+        summary.update(paper.run(kind, scene, design, files, progress=progress, jobs=jobs))
     summary["wall_time_s"] = time.perf_counter() - t0
     if progress:
         progress(1.0)

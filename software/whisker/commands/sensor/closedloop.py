@@ -10,11 +10,12 @@ import click
 
 from whisker.cliutil import fail
 from whisker.commands.sensor.actuate import config_options
+from whisker.resources import scenes_dir
 
-DEFAULT_SCENE = Path(__file__).resolve().parents[1] / "sim" / "scenes" / "grasp.toml"
+DEFAULT_SCENE = scenes_dir() / "grasp.toml"
 
 #: options that only the simulated comparison reads, and those only a hardware run reads
-SIM_ONLY = ("scene_path", "attempts", "objects", "counts", "out", "open_guard")
+SIM_ONLY = ("scene_path", "attempts", "objects", "counts", "out", "open_guard", "jobs", "locate")
 HW_ONLY = ("source", "which", "start", "policy", "out_log", "rest_frames", "max_frames", "track_method",
            "calibration", "mask", "descend_mm", "descend_s", "lift_mm", "lift_s", "hold_s", "arm", "design_file",
            "overrides", "watchdog_s")
@@ -40,6 +41,10 @@ HW_ONLY = ("source", "which", "start", "policy", "out_log", "rest_frames", "max_
               help="[sim] The open loop's levels pass through the same thermal guard as the closed loop's "
                    "(as on the hardware, whose actuator always applies it); --bare-open: the paper's protocol "
                    "without a guard (a simulator-only reference).")
+@click.option("--locate", is_flag=True,
+              help="[sim] At each closed-loop grip, where the object sits along the holding whiskers: a locate sweep "
+                   "(docs/locate.md) per holding whisker, mm from the pivot, estimate+-1 sigma (true); column "
+                   "`locate` of closed_loop_runs.csv.")
 @click.option("--early-contact", type=click.Choice(["abort", "continue"]), default="abort", show_default=True,
               help="A whisker touched before any coil is driven: abort (fail safe) or log it and grasp anyway.")
 @click.option("--design", "design_file", type=click.Path(dir_okay=False), default=None,
@@ -79,9 +84,12 @@ HW_ONLY = ("source", "which", "start", "policy", "out_log", "rest_frames", "max_
 @click.option("--watchdog-s", type=click.FloatRange(0.05, 60), default=None,
               help="[hardware] Coils off after this many seconds without a frame (default: 2.5 frame periods "
                    "for a live camera, 5 s for a file).")
+@click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
+              help="[sim] Worker processes (joblib) for the attempts; the table is the same for any count.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar / prompts.")
 @click.pass_context
-def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guard, early_contact, quiet, **hw):
+def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guard, early_contact, jobs, quiet, locate,
+        **hw):
     """Closed-loop grasps: grip on contact, lowest holding level, slip re-grip, fail safe.
 
     \b
@@ -108,7 +116,7 @@ def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guar
         if extra:
             fail(f"closedloop: --{extra[0].replace('out_log', 'log').replace('_', '-').replace('which', 'config')} "
                  "is for --backend mock or gpio (the simulator takes the design and frames from --scene)")
-        return run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard)
+        return run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard, jobs, locate)
     extra = sorted(given & set(SIM_ONLY))
     if extra:
         name = (extra[0].replace('scene_path', 'scene').replace('counts', 'whiskers')
@@ -119,7 +127,8 @@ def cli(ctx, backend, scene_path, attempts, fps, objects, counts, out, open_guar
     sys.exit(run_hardware(backend, fps, fps_given, early_contact, quiet, **hw))
 
 
-def run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard=True):
+def run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quiet, open_guard=True, jobs=1, locate=False):
+    import numpy as np
     from tqdm import tqdm
 
     from whisker.files import atomic_write_text
@@ -140,8 +149,16 @@ def run_sim(scene_path, attempts, fps, objects, counts, out, early_contact, quie
         def progress(f):
             bar.n = round(f, 4)
             bar.refresh()
+        noise = None
+        if locate:
+            from whisker.sim.experiments.locate_sweep import tracker_noise_bank
+
+            noise = tracker_noise_bank(design, 60)                 # rendered rest frames, the fit tracker
+            noise = noise[np.isfinite(noise).all(axis=1)]
+            noise = noise - noise.mean(axis=0)
         tab = closed_loop_table(scene, design, attempts=attempts, fps=fps, configs=cfgs, objects=list(objects) or None,
-                                progress=progress, params={"early_contact": early_contact}, open_guard=open_guard)
+                                progress=progress, params={"early_contact": early_contact}, open_guard=open_guard,
+                                n_jobs=jobs, locate_noise=noise)
         bar.close()
     except (SceneError, ValueError) as err:
         fail(f"closedloop: {err}")

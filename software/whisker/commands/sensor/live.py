@@ -51,14 +51,27 @@ def open_live_source(source: str, design, fps: float, max_frames, contacts=()):
 @click.option("--max-frames", type=click.IntRange(1, None), default=None, help="Stop after this many frames.")
 @click.option("--calibration", type=click.Path(dir_okay=False), default=None, help="Lens calibration .npz.")
 @click.option("--mask", type=click.Path(dir_okay=False), default=None, help="Region-of-interest image.")
+@click.option("--locate", "locate", is_flag=True,
+              help="Active whisking (docs/locate.md): when a whisker settles in contact, sweep its coil and print "
+                   "the contact distance along the rod (mm) and the force (mN) as a {\"locate\": ...} line; "
+                   "\"no contact\" if none touches. Drives the coils: --source sim only (hardware: record a sweep "
+                   "and run `whisker locate SESSION`).")
+@click.option("--locate-whisker", type=click.IntRange(0), default=None,
+              help="--locate: sweep only this whisker (default: the first one in contact).")
+@click.option("--sweep-level", type=click.FloatRange(-1, 1), default=None,
+              help="--locate: sweep level (signed PWM duty) [default: whisker.sensing.locate.DEFAULT_AMPLITUDE].")
+@click.option("--sweep-duration", type=click.FloatRange(0.05, 60), default=None,
+              help="--locate: sweep duration, s [default: whisker.sensing.locate.DEFAULT_DURATION_S].")
 @click.option("-q", "--quiet", is_flag=True, help="No summary on stderr.")
-def cli(design, source, fps, contacts, method, track_method, rest_frames, record, show, max_frames, calibration, mask, quiet):
+def cli(design, source, fps, contacts, method, track_method, rest_frames, record, show, max_frames, calibration, mask,
+        locate, locate_whisker, sweep_level, sweep_duration, quiet):
     """Track the markers and label every whisker rest / contact / dynamic, live.
 
     Writes one JSON line per frame on stdout ({"frame", "t", "states", "dx", "dy", "valid", "force_mN",
     "direction_deg", "ms"}: px; the tip force from the deflection and the membrane stiffness, mN, and
     its direction, deg CCW from the sensor's +x; docs/states.md), for other programs to read;
     --record writes the annotated video (state labels, displacement and force arrows), --show opens a window.
+    --contact W:START-END:DEG@MM puts the simulated object MM mm along the rod (for --locate).
     Stop with Ctrl-C (or q in the window)."""
     import itertools
 
@@ -82,6 +95,21 @@ def cli(design, source, fps, contacts, method, track_method, rest_frames, record
                 raise ValueError(f"contact {c.whisker}: the design has whiskers 0-{design.whiskers.count - 1}")
     except ValueError as err:
         fail(f"live: --contact: {err}")
+    locator = None
+    if locate:
+        from whisker.sensing.locate import LocateError
+        from whisker.sensing.locate_live import LiveLocator
+
+        if source != "sim":
+            fail("live: --locate drives the coils, which `whisker live` can only do in the simulator (--source sim); "
+                 "on hardware record a sweep (`whisker record`) and run `whisker locate SESSION`")
+        try:
+            locator = LiveLocator(design, whisker=locate_whisker, amplitude=sweep_level, duration_s=sweep_duration,
+                                  fps=fps)
+        except LocateError as err:
+            fail(f"live: --locate refused: {err}")
+    elif locate_whisker is not None or sweep_level is not None or sweep_duration is not None:
+        fail("live: --locate-whisker, --sweep-level and --sweep-duration go with --locate")
     if source == "sim" and not schedule and not quiet:
         click.echo("live: --source sim without --contact: nothing touches the simulated whiskers", err=True)
     if show and not os.environ.get("DISPLAY") and sys.platform.startswith("linux"):
@@ -105,11 +133,18 @@ def cli(design, source, fps, contacts, method, track_method, rest_frames, record
         tracker.calibrate(rest)
         pipe = LivePipeline(tracker, make_estimator(method, tracker.n), force_model=ForceModel.from_design(design))
         stream = frames if max_frames is None else itertools.islice(frames, max_frames)
+        levels = None
         for frame in stream:
-            live = pipe.step(frame)
+            live = pipe.step(frame, levels=levels)
             n_frames += 1
             t_proc += live.process_s
             sys.stdout.write(json.dumps(live.record(), separators=(",", ":")) + "\n")
+            if locator is not None:
+                found = locator.update(live, tracker)
+                if found is not None:
+                    _say_locate(found, quiet)
+                levels = locator.next_levels()
+                backend.set_levels(np.zeros(design.whiskers.count) if levels is None else levels)
             sys.stdout.flush()
             if record or show:
                 import cv2
@@ -140,6 +175,8 @@ def cli(design, source, fps, contacts, method, track_method, rest_frames, record
         src.close()
         if backend is not None:
             backend.off()
+        if locator is not None and (end := locator.finish()) is not None:
+            _say_locate(end, quiet)
         if writer is not None:
             writer.release()
             os.replace(rec_tmp, record)
@@ -151,3 +188,11 @@ def cli(design, source, fps, contacts, method, track_method, rest_frames, record
     if not quiet:
         click.echo(f"live: {n_frames} frames, {1e3 * t_proc / max(n_frames, 1):.2f} ms/frame tracking + states"
                    + (f"; wrote {record}" if record and writer is not None else ""), err=True)
+
+
+def _say_locate(rec: dict, quiet: bool) -> None:
+    """One {"locate": ...} JSON line on stdout, and the sentence on stderr."""
+    sys.stdout.write(json.dumps({"locate": rec}, separators=(",", ":")) + "\n")
+    sys.stdout.flush()
+    if not quiet:
+        click.echo(f"locate: whisker {rec.get('whisker')}: {rec['status']}: {rec.get('message', '')}", err=True)

@@ -29,9 +29,11 @@ LONG_RUN_STEPS = 200_000
                    "--scene-set 'objects.foam ball.friction=0.3' (repeatable).")
 @click.option("--attempts", type=int, default=None, help="Override experiment.attempts (grasp).")
 @click.option("--trials", type=int, default=None, help="Override experiment.trials (displacement, classification).")
+@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Worker processes (joblib) for the grasp table's attempts; the table is the same for any count.")
 @click.option("--json", "as_json", is_flag=True, help="With --explain: print the plan as JSON.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
-def cli(scene_file, explain, out, design_file, overrides, scene_sets, attempts, trials, as_json, quiet):
+def cli(scene_file, explain, out, design_file, overrides, scene_sets, attempts, trials, jobs, as_json, quiet):
     """Simulate SCENE.toml: the sensor, its whiskers, coils, objects and camera.
 
     Builds only the effects the scene calls for (kinematics, gravity, motion, magnetics, heating,
@@ -103,7 +105,7 @@ def cli(scene_file, explain, out, design_file, overrides, scene_sets, attempts, 
 
     try:
         with exclusive_out(out, "sim"):
-            summary = run_scene(scene, design, p, out, progress=progress)
+            summary = run_scene(scene, design, p, out, progress=progress, jobs=jobs)
     except (SceneError, SimulationError, MissingModule, ValueError) as err:
         bar.close()
         fail(f"simulation failed: {err}", 1)

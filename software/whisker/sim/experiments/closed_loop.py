@@ -24,29 +24,67 @@ from whisker.sim.experiments.paper import (START_HEIGHT, T_CLOSE, T_DOWN, T_HOLD
                                grasp_scene)
 
 
-def free_closing_px(design, *, facing: str = "down", points: int = 24):
+class FreeClosing:
     """`expected_px(level) -> (n, 2)`: the marker displacement (px, the tracker's frame) of a free
     whisker driven at `level`, from the static equilibrium (whisker.coil.kinematics), tabulated on
-    `points` levels in 0..1 and interpolated."""
-    from whisker.sim.contract import current_A, full_scale_voltage, marker_pixels
+    `points` levels in 0..1 and interpolated; and `pressing_Nm(level, d_px) -> (n,)`: the net closing
+    torque (N m) a whisker blocked at displacement `d_px` presses on the object with at `level`.
 
-    n = design.whiskers.count
-    body = whisker_body(design)
-    lv = np.linspace(0.0, 1.0, points)
-    I = np.asarray(current_A(design, lv * full_scale_voltage(design)), dtype=float)
-    th = static_equilibrium(design, body, I, facing=facing).theta_rad            # (points,)
-    rest = marker_pixels(design, marker_positions_mm(design, np.zeros((n, 2))))
-    tab = np.array([marker_pixels(design, marker_positions_mm(design, np.stack([np.full(n, t), np.zeros(n)], -1)))
-                    - rest for t in th])                                          # (points, n, 2)
+    The pressing torque is tau_magnetic(I(level), theta) + tau_gravity(theta) - k theta at the held
+    tilt theta (the marker displacement inverted through the same camera model), i.e. the torque the
+    object's contact force must balance. The free closing alone is no measure of it: with the
+    design's magnet the pull grows steeply as the gap closes, so from ~40 % of full scale the free
+    whisker snaps onto the end stop, while a whisker held far from the magnet (the object in the way)
+    presses with only the pull at its own, wider gap (whisker.sensing.grasp_control._hold_level)."""
 
-    def expected(level: float) -> np.ndarray:
+    def __init__(self, design, *, facing: str = "down", points: int = 24, theta_points: int = 64):
+        from whisker.sim.contract import current_A, full_scale_voltage, marker_pixels
+
+        self.design, self.facing = design, facing
+        n = design.whiskers.count
+        self.n = n
+        self.body = body = whisker_body(design)
+        self.lv = lv = np.linspace(0.0, 1.0, points)
+        self.volts = full_scale_voltage(design)
+        I = np.asarray(current_A(design, lv * self.volts), dtype=float)
+        th = static_equilibrium(design, body, I, facing=facing).theta_rad            # (points,)
+
+        def px(theta):
+            return marker_pixels(design, marker_positions_mm(design, np.stack([np.full(n, theta), np.zeros(n)], -1)))
+        rest = px(0.0)
+        self.tab = np.array([px(t) - rest for t in th])                               # (points, n, 2)
+        # held displacement (px, its length) -> radial tilt (rad), per whisker, on 0..stop
+        self.th_grid = np.linspace(0.0, body.stop_rad, theta_points)
+        self.r_grid = np.array([np.linalg.norm(px(t) - rest, axis=1) for t in self.th_grid])   # (T, n)
+
+    def __call__(self, level: float) -> np.ndarray:
         x = float(np.clip(abs(level), 0.0, 1.0))
-        k = min(int(np.searchsorted(lv, x)), points - 1)
+        lv, tab = self.lv, self.tab
+        k = min(int(np.searchsorted(lv, x)), len(lv) - 1)
         if k == 0:
             return tab[0].copy()
         w = (x - lv[k - 1]) / (lv[k] - lv[k - 1])
         return (1 - w) * tab[k - 1] + w * tab[k]
-    return expected
+
+    def held_theta_rad(self, d_px) -> np.ndarray:
+        """Radial tilt (rad) of each whisker at marker displacement `d_px` (n, 2), clipped to 0..stop."""
+        r = np.linalg.norm(np.asarray(d_px, dtype=float).reshape(self.n, 2), axis=1)
+        return np.array([np.interp(r[i], self.r_grid[:, i], self.th_grid) for i in range(self.n)])
+
+    def pressing_Nm(self, level: float, d_px) -> np.ndarray:
+        """Net closing torque (N m) of each whisker held at `d_px` with its coil at `level` (20 C)."""
+        from whisker.coil.kinematics import gravity_torque, magnetic_torque
+        from whisker.sim.contract import current_A
+
+        th = self.held_theta_rad(d_px)
+        I = float(current_A(self.design, abs(float(level)) * self.volts))
+        return (magnetic_torque(self.design, self.body, th, I) + gravity_torque(self.body, th, self.facing)
+                - self.body.stiffness * th)
+
+
+def free_closing_px(design, *, facing: str = "down", points: int = 24) -> FreeClosing:
+    """The free-closing map of `design` (see FreeClosing): callable as `expected_px(level)`."""
+    return FreeClosing(design, facing=facing, points=points)
 
 
 class OpenLoopController:

@@ -42,13 +42,46 @@ def _wilcoxon(x, y) -> float:
     return float(wilcoxon(x, y, zero_method="zsplit").pvalue)
 
 
+def _one_grasp(scene, design, obj, cfg, placement, k: int, mode: str, fps: float, body, params, open_guard: bool,
+               locate_noise=None):
+    """One attempt of `mode` ("open" or "closed") at `placement` (seed k): a GraspRun. With
+    `locate_noise`, a closed-loop run carries `locate`: where the object sits along the holding whiskers
+    at the grip (whisker.sim.experiments.grasp_locate)."""
+    from whisker.drive.guard import ThermalGuard
+    from whisker.sensing.grasp_control import GraspController
+
+    n = design.whiskers.count
+    rig = SimGraspRig(scene, design, obj, cfg, placement, fps=fps, seed=k, body=body)
+    ctl = (OpenLoopController(n, cfg, rig.params(),
+                              guard=ThermalGuard(design, clock=lambda: 0.0) if open_guard else None)
+           if mode == "open" else
+           GraspController(n, cfg, rig.params(**(params or {})), free_closing_px(design),
+                           guard=ThermalGuard(design, clock=lambda: 0.0)))
+    hook = None
+    if locate_noise is not None and mode == "closed":
+        from whisker.sim.experiments.grasp_locate import GripLocator
+
+        hook = GripLocator(design, locate_noise, seed=k)
+    r = run_grasp(rig, ctl, hold_height_mm=scene.experiment.hold_height, on_frame=hook)
+    if hook is not None:
+        from whisker.sim.experiments.grasp_locate import summary
+
+        r.locate = summary(hook.rows())
+    r.process_ms = [float(np.mean(r.process_ms))] if r.process_ms else []     # the mean is all the table keeps
+    return r
+
+
 def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, configs=None, objects=None,
-                      progress=None, params: dict | None = None, open_guard: bool = True) -> dict:
+                      progress=None, params: dict | None = None, open_guard: bool = True, n_jobs: int = 1,
+                      locate_noise=None) -> dict:
     """See the module doc. `open_guard` (default): the open loop's levels pass through the same thermal
     guard as the closed loop's, as on the hardware, whose actuator always applies one; False: the bare
-    paper protocol (a simulator-only reference)."""
-    from whisker.sensing.grasp_control import GraspController
-    from whisker.drive.guard import ThermalGuard
+    paper protocol (a simulator-only reference). `n_jobs`: joblib worker processes for the attempts
+    (every attempt runs on simulated time, so the table is the same for any count). `locate_noise`: a
+    tracker tilt-error bank (rad, (F, 2)); when given, every run gets a column "locate": for closed-loop
+    runs where the object sits along the holding whiskers at the grip (whisker.sim.experiments.grasp_locate)."""
+    from joblib import Parallel, delayed
+
     from whisker.coil.kinematics import whisker_body
 
     objs = experiment_objects(scene)
@@ -61,62 +94,62 @@ def closed_loop_table(scene, design, *, attempts: int, fps: float = 15.0, config
             raise ValueError(f"none of the objects {objects} is in the scene")
     cfgs = configs or configurations(scene, design)
     body = whisker_body(design)
-    expected = free_closing_px(design)
-    hold = scene.experiment.hold_height
-    n = design.whiskers.count
     rows, runs = [], []
-    total = len(objs) * len(cfgs) * attempts
-    done = 0
+    cells = []
     for oi, o in enumerate(objs):
         rng = np.random.default_rng([scene.scene.seed, oi])
         places = [draw_placement(scene, design, rng) for _ in range(attempts)]
-        for cfg in cfgs:
-            res = {"open": [], "closed": []}
-            for k, pl in enumerate(places):
-                for mode in ("open", "closed"):
-                    rig = SimGraspRig(scene, design, o, cfg, pl, fps=fps, seed=k, body=body)
-                    ctl = (OpenLoopController(n, cfg, rig.params(),
-                                              guard=ThermalGuard(design, clock=lambda: 0.0) if open_guard else None)
-                           if mode == "open" else
-                           GraspController(n, cfg, rig.params(**(params or {})), expected,
-                                           guard=ThermalGuard(design, clock=lambda: 0.0)))
-                    r = run_grasp(rig, ctl, hold_height_mm=hold)
-                    res[mode].append(r)
-                    runs.append({"object": o.name, "whiskers": len(cfg), "placement": k, "mode": mode,
-                                 "success": r.success, "lift_mm": round(r.lift_mm, 2), "energy_J": round(r.energy_J, 4),
-                                 "peak_C": round(r.peak_C, 2),
-                                 "time_to_grip_s": None if r.time_to_grip_s is None else round(r.time_to_grip_s, 3),
-                                 "outcome": r.outcome, "frames": r.frames,
-                                 "process_ms_mean": round(float(np.mean(r.process_ms)), 3)})
-                done += 1
-                if progress:
-                    progress(done / total)
-            so = [r.success for r in res["open"]]
-            sc = [r.success for r in res["closed"]]
-            w, l, p = _mcnemar(so, sc)
-            eo = [r.energy_J for r in res["open"]]
-            ec = [r.energy_J for r in res["closed"]]
-            po = [r.peak_C for r in res["open"]]
-            pc = [r.peak_C for r in res["closed"]]
-            both = [i for i in range(attempts) if so[i] and sc[i]]
-            row = {"object": o.name, "mass_g": o.mass, "whiskers": len(cfg), "attempts": attempts,
-                   "open_success": int(sum(so)), "closed_success": int(sum(sc)),
-                   "open_ci": wilson_interval(int(sum(so)), attempts), "closed_ci": wilson_interval(int(sum(sc)), attempts),
-                   "closed_wins": w, "closed_losses": l, "mcnemar_p": p,
-                   "open_energy_J": float(np.mean(eo)), "closed_energy_J": float(np.mean(ec)),
-                   "open_energy_per_success_J": float(np.sum(eo) / sum(so)) if sum(so) else math.inf,
-                   "closed_energy_per_success_J": float(np.sum(ec) / sum(sc)) if sum(sc) else math.inf,
-                   "energy_both_held_open_J": float(np.mean([eo[i] for i in both])) if both else math.nan,
-                   "energy_both_held_closed_J": float(np.mean([ec[i] for i in both])) if both else math.nan,
-                   "energy_p": _wilcoxon(eo, ec),
-                   "open_peak_C": float(np.max(po)), "closed_peak_C": float(np.max(pc)),
-                   "peak_p": _wilcoxon(po, pc),
-                   "open_grip_s": float(np.mean([r.time_to_grip_s for r in res["open"] if r.time_to_grip_s is not None] or [math.nan])),
-                   "closed_grip_s": float(np.mean([r.time_to_grip_s for r in res["closed"] if r.time_to_grip_s is not None] or [math.nan])),
-                   "aborts": sum(1 for r in res["closed"] if any(e[1] == "abort" for e in r.events)),
-                   "missed": sum(1 for r in res["closed"] if r.outcome.startswith("missed")),
-                   "regrips": sum(int(any(e[1] == "regrip" for e in r.events)) for r in res["closed"])}
-            rows.append(row)
+        cells += [(o, cfg, places) for cfg in cfgs]
+    jobs = [(o, cfg, pl, k, mode) for o, cfg, places in cells for k, pl in enumerate(places) for mode in ("open", "closed")]
+    results = []
+    gen = Parallel(n_jobs=n_jobs, return_as="generator")(
+        delayed(_one_grasp)(scene, design, o, cfg, pl, k, mode, fps, body, params, open_guard, locate_noise)
+        for o, cfg, pl, k, mode in jobs)
+    for j, r in enumerate(gen):
+        results.append(r)
+        if progress and j % 2 == 1:
+            progress((j + 1) / len(jobs))
+    it = iter(results)
+    for o, cfg, places in cells:
+        res = {"open": [], "closed": []}
+        for k in range(len(places)):
+            for mode in ("open", "closed"):
+                r = next(it)
+                res[mode].append(r)
+                runs.append({"object": o.name, "whiskers": len(cfg), "placement": k, "mode": mode,
+                             "success": r.success, "lift_mm": round(r.lift_mm, 2), "energy_J": round(r.energy_J, 4),
+                             "peak_C": round(r.peak_C, 2),
+                             "time_to_grip_s": None if r.time_to_grip_s is None else round(r.time_to_grip_s, 3),
+                             "outcome": r.outcome, "frames": r.frames,
+                             "process_ms_mean": round(float(np.mean(r.process_ms)), 3) if r.process_ms else 0.0})
+                if locate_noise is not None:
+                    runs[-1]["locate"] = getattr(r, "locate", "")
+        so = [r.success for r in res["open"]]
+        sc = [r.success for r in res["closed"]]
+        w, l, p = _mcnemar(so, sc)
+        eo = [r.energy_J for r in res["open"]]
+        ec = [r.energy_J for r in res["closed"]]
+        po = [r.peak_C for r in res["open"]]
+        pc = [r.peak_C for r in res["closed"]]
+        both = [i for i in range(attempts) if so[i] and sc[i]]
+        row = {"object": o.name, "mass_g": o.mass, "whiskers": len(cfg), "attempts": attempts,
+               "open_success": int(sum(so)), "closed_success": int(sum(sc)),
+               "open_ci": wilson_interval(int(sum(so)), attempts), "closed_ci": wilson_interval(int(sum(sc)), attempts),
+               "closed_wins": w, "closed_losses": l, "mcnemar_p": p,
+               "open_energy_J": float(np.mean(eo)), "closed_energy_J": float(np.mean(ec)),
+               "open_energy_per_success_J": float(np.sum(eo) / sum(so)) if sum(so) else math.inf,
+               "closed_energy_per_success_J": float(np.sum(ec) / sum(sc)) if sum(sc) else math.inf,
+               "energy_both_held_open_J": float(np.mean([eo[i] for i in both])) if both else math.nan,
+               "energy_both_held_closed_J": float(np.mean([ec[i] for i in both])) if both else math.nan,
+               "energy_p": _wilcoxon(eo, ec),
+               "open_peak_C": float(np.max(po)), "closed_peak_C": float(np.max(pc)),
+               "peak_p": _wilcoxon(po, pc),
+               "open_grip_s": float(np.mean([r.time_to_grip_s for r in res["open"] if r.time_to_grip_s is not None] or [math.nan])),
+               "closed_grip_s": float(np.mean([r.time_to_grip_s for r in res["closed"] if r.time_to_grip_s is not None] or [math.nan])),
+               "aborts": sum(1 for r in res["closed"] if any(e[1] == "abort" for e in r.events)),
+               "missed": sum(1 for r in res["closed"] if r.outcome.startswith("missed")),
+               "regrips": sum(int(any(e[1] == "regrip" for e in r.events)) for r in res["closed"])}
+        rows.append(row)
     return {"fps": fps, "attempts": attempts, "rows": rows, "runs": runs, "open_guard": open_guard}
 
 
@@ -158,7 +191,24 @@ def closed_loop_markdown(tab: dict) -> str:
     out.append(f"| **all** | | {100 * so / nt:.0f} / {100 * sc / nt:.0f} / | | {eo / nt:.2f} / {ec / nt:.2f} | "
                f"{_fmt_e(eo / so if so else math.inf)} / {_fmt_e(ec / sc if sc else math.inf)} | | | "
                f"{sum(r['aborts'] for r in tab['rows'])} |")
-    return "\n".join(out) + "\n"
+    return "\n".join(out) + "\n" + _totals_by_count(tab["rows"])
+
+
+def _totals_by_count(rows) -> str:
+    """Success per whisker count over the objects (the mean of the objects' rates, as the paper's
+    totals), open / closed, beside the paper's open-loop totals."""
+    from whisker.sim.experiments.repeat import PAPER_GRASP_TOTAL
+
+    counts = sorted({r["whiskers"] for r in rows}, reverse=True)
+    cells = []
+    for c in counts:
+        rs = [r for r in rows if r["whiskers"] == c]
+        o = 100 * float(np.mean([r["open_success"] / r["attempts"] for r in rs]))
+        k = 100 * float(np.mean([r["closed_success"] / r["attempts"] for r in rs]))
+        col = {8: 0, 4: 1, 2: 2}.get(c)
+        paper = f"{PAPER_GRASP_TOTAL[col]:g}" if col is not None and col < len(PAPER_GRASP_TOTAL) else "-"
+        cells.append(f"{c} whiskers {o:.0f} / {k:.0f} / {paper}")
+    return "\nTotals over the objects, success % open / closed / paper: " + "; ".join(cells) + ".\n"
 
 
 def closed_loop_csv(tab: dict) -> str:

@@ -195,3 +195,53 @@ def run_case(design, case: Case, *, amplitude: float = L.DEFAULT_AMPLITUDE, dura
     k = L.membrane_stiffness_Nmm_per_rad(design)[0]
     truth = {"r_mm": case.r_mm, "force_mN": 1e3 * k * math.radians(case.preload_deg) / case.r_mm}
     return res, truth
+
+
+#: px, a 32-frame window whose std (both axes) is below this counts as "at rest" in the authors' series
+QUIET_STD_PX = 0.25
+QUIET_WINDOW = 32
+
+
+def peer_jitter_series(design, path=None) -> tuple[np.ndarray, float]:
+    """((n, 2) tilt noise in rad [radial, tangential], frame rate Hz): the authors' REAL tracked marker
+    jitter while the whisker stands still (their camera, lighting, vibration and tracker together).
+
+    Source: airflow/airflowDemoData.csv of the authors' data (WHISKER_PEER_DATA; 2337 frames at ~65 fps
+    of one whisker's marker displacement, px). The quiet runs (every 32-frame window's std below
+    QUIET_STD_PX on both axes, the rest/hold periods between air puffs; QUIET_WINDOW / 4 frames trimmed
+    off each end) are kept, each run minus its own mean, in time order (so the spectrum is the measured one), and converted px -> rad by the design's
+    marker lever (l_l / mm_per_px px per rad: a marker displacement of 1 px is that tilt). Their dx is
+    taken as radial and dy as tangential (both have the same spread)."""
+    import os
+
+    if path is None:
+        root = os.environ.get("WHISKER_PEER_DATA")
+        if not root:
+            raise FileNotFoundError("the authors' real jitter needs WHISKER_PEER_DATA (their data folder)")
+        path = Path(root) / "airflow" / "airflowDemoData.csv"
+    data = np.loadtxt(path, delimiter=",", skiprows=1)
+    t, xy = data[:, 0], data[:, 1:3]
+    n = len(t)
+    quiet = np.zeros(n, bool)
+    for i in range(n - QUIET_WINDOW + 1):
+        if (xy[i:i + QUIET_WINDOW].std(axis=0) < QUIET_STD_PX).all():
+            quiet[i:i + QUIET_WINDOW] = True
+    edges = np.flatnonzero(np.diff(np.r_[0, quiet.astype(int), 0]))
+    trim = QUIET_WINDOW // 4          # a window that only starts to catch a movement can still pass: drop run ends
+    runs = [xy[a + trim:b - trim] - xy[a + trim:b - trim].mean(axis=0)
+            for a, b in zip(edges[::2], edges[1::2]) if b - a >= 2 * QUIET_WINDOW + 2 * trim]
+    if not runs:
+        raise ValueError(f"{path}: no still period of {2 * QUIET_WINDOW} frames found")
+    px_per_rad = design.derived()["l_l_mm"] / design.derived()["mm_per_px"]
+    fps = 1.0 / float(np.median(np.diff(t)))
+    return np.concatenate(runs) / px_per_rad, fps
+
+
+def draw_noise(bank: np.ndarray, n: int, rng, block: int | None = None) -> np.ndarray:
+    """(n, 2) noise drawn from a bank: frame by frame (``block`` None: white, for the rendered-frame bank
+    whose frames are independent) or as a moving-block bootstrap of ``block`` consecutive frames
+    (Kuensch 1989), which keeps the measured series' short-range correlation and so its spectrum."""
+    if block is None:
+        return bank[rng.integers(len(bank), size=n)]
+    starts = rng.integers(len(bank) - block, size=n // block + 1)
+    return np.concatenate([bank[s:s + block] for s in starts])[:n]

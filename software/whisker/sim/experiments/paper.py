@@ -81,51 +81,86 @@ def grasp_attempt(scene, design, obj, active, rng=None, *, keep=False, release=F
     return Attempt(obj.name, len(active), ok, lift, res if keep else None)
 
 
-def grasp_table(scene: Scene, design, progress=None) -> dict:
+def _attempt_outcome(scene, design, obj, cfg, body, placement) -> tuple[bool, float]:
+    a = grasp_attempt(scene, design, obj, cfg, body=body, placement=placement)
+    return a.success, a.lift_mm
+
+
+def grasp_table(scene: Scene, design, progress=None, n_jobs: int = 1) -> dict:
     """Success rate (%) per object and configuration, with the paper's numbers beside them.
 
     Every configuration of an object sees the same placements (common random numbers), so the
-    differences between the columns come from the configurations, not from different draws.
+    differences between the columns come from the configurations, not from different draws. The
+    placements are drawn first (seeded per object), then the attempts run over `n_jobs` joblib
+    worker processes (each attempt is its own MuJoCo model): the table is the same for any `n_jobs`.
     """
+    from joblib import Parallel, delayed
+
     from whisker.coil.kinematics import whisker_body
 
     e = scene.experiment
     objs = experiment_objects(scene)
     if not objs:
         raise SceneError("grasp experiment: the scene has no objects")
+    if n_jobs < 1:
+        raise ValueError(f"grasp table: n_jobs must be >= 1 (got {n_jobs})")
     cfgs = configurations(scene, design)
     body = whisker_body(design)
-    rates: dict[str, list[float]] = {}
-    lifts: dict[str, list[list[float]]] = {}
-    held: dict[str, list[list[bool]]] = {}
-    total = len(objs) * len(cfgs) * e.attempts
-    done = 0
+    jobs = []
     for oi, o in enumerate(objs):
-        rates[o.name] = []
-        lifts[o.name] = []
-        held[o.name] = []
         rng = np.random.default_rng([scene.scene.seed, oi])
         places = [draw_placement(scene, design, rng) for _ in range(e.attempts)]
-        for cfg in cfgs:
-            ok = []
-            ls = []
-            for pl in places:
-                a = grasp_attempt(scene, design, o, cfg, body=body, placement=pl)
-                ok.append(a.success)
-                ls.append(a.lift_mm)
-                done += 1
-                if progress:
-                    progress(done / total)
+        jobs += [(oi, ci, o, cfg, pl) for ci, cfg in enumerate(cfgs) for pl in places]
+    total = len(jobs)
+    out = []
+    run = Parallel(n_jobs=n_jobs, return_as="generator")(
+        delayed(_attempt_outcome)(scene, design, o, cfg, body, pl) for _, _, o, cfg, pl in jobs)
+    for k, res in enumerate(run):
+        out.append(res)
+        if progress:
+            progress((k + 1) / total)
+    rates: dict[str, list[float]] = {o.name: [] for o in objs}
+    lifts: dict[str, list[list[float]]] = {o.name: [] for o in objs}
+    held: dict[str, list[list[bool]]] = {o.name: [] for o in objs}
+    for oi, o in enumerate(objs):
+        for ci in range(len(cfgs)):
+            rows = [r for (a, c, *_), r in zip(jobs, out) if a == oi and c == ci]
+            ok = [r[0] for r in rows]
             rates[o.name].append(100.0 * float(np.mean(ok)))
-            lifts[o.name].append(ls)
+            lifts[o.name].append([r[1] for r in rows])
             held[o.name].append(ok)
     totals = [float(np.mean([rates[o.name][c] for o in objs])) for c in range(len(cfgs))]
     n = e.attempts
     ci95 = {name: [wilson_interval(round(v / 100 * n), n) for v in r] for name, r in rates.items()}
     paired = {name: paired_comparisons(h) for name, h in held.items()}
     return {"configurations": cfgs, "rates": rates, "ci95": ci95, "totals": totals, "attempts": n,
+            "tip_force": tip_pressing_mN(design),
             "objects": {o.name: o.mass for o in objs}, "lifts_mm": lifts, "paired": paired,
             "order": {name: grasp_order(r, ci95[name], paired[name]) for name, r in rates.items()}}
+
+
+def tip_pressing_mN(design, tilts_deg=(0.0, 4.0, 8.0), facing: str = "down") -> dict:
+    """The force (mN) with which a tip blocked at each tilt (deg, radial) presses the object at the
+    grasp level (coil at 20 C): the net closing torque, the coil's pull at that tilt's gap minus the
+    membrane spring (and the whisker's weight), tau = tau_mag(I, theta) + tau_grav(theta) - k theta
+    (whisker.coil.kinematics), over the pivot-to-tip lever. Also the free tilt (deg) and whether it
+    is the end stop (the whisker pulled in onto it: there the net torque loads the stop, not an object)."""
+    from whisker.coil.kinematics import gravity_torque, magnetic_torque, static_equilibrium, whisker_body
+    from whisker.sim.contract import current_A, full_scale_voltage
+
+    body = whisker_body(design)
+    I = float(current_A(design, grasp_level(design) * full_scale_voltage(design)))
+    eq = static_equilibrium(design, body, np.array([I]), facing=facing)
+    out = {}
+    for deg in tilts_deg:
+        th = math.radians(deg)
+        tau = float(magnetic_torque(design, body, th, I)) + float(gravity_torque(body, th, facing)) - body.stiffness * th
+        out[float(deg)] = 1e3 * tau / body.tip_m                     # N m / m -> mN
+    return {"force_mN": out, "free_tilt_deg": float(np.degrees(eq.theta_rad[0])),
+            "at_stop": bool(eq.at_stop[0]), "stop_deg": float(np.degrees(body.stop_rad)),
+            "at_stop_mN": 1e3 * (float(magnetic_torque(design, body, body.stop_rad, I))
+                                 + float(gravity_torque(body, body.stop_rad, facing))
+                                 - body.stiffness * body.stop_rad) / body.tip_m}
 
 
 def paired_comparisons(held: list[list[bool]]) -> list[dict]:
@@ -198,7 +233,18 @@ def grasp_markdown(tab: dict) -> str:
         f"\n\n{tab['attempts']} simulated attempts per cell (sim %, Wilson 95 % interval) beside the paper's 20 "
         "(paper %). Every configuration sees the same placements; 'wins-losses': attempts the larger "
         "configuration holds and the smaller drops, and the reverse; p: exact one-sided McNemar test. "
-        "'resolved': strictly ordered and every p < 0.05.\n")
+        "'resolved': strictly ordered and every p < 0.05." + _force_line(tab) + "\n")
+
+
+def _force_line(tab: dict) -> str:
+    f = tab.get("tip_force")
+    if not f:
+        return ""
+    at = ", ".join(f"{v:.2f} mN at {k:g} deg" for k, v in f["force_mN"].items())
+    free = (f"the free whisker pulls in onto the {f['stop_deg']:g} deg end stop (pressing it with {f['at_stop_mN']:.2f} mN "
+            "at the tip's lever)" if f["at_stop"] else f"the free whisker closes to {f['free_tilt_deg']:.1f} deg")
+    return (f" Each tip that meets an object presses it with {at} of tilt (the coil's pull at that gap minus "
+            f"the membrane spring, over the pivot-to-tip lever, coil at 20 C); {free}.")
 
 
 def grasp_csv(tab: dict) -> str:
@@ -354,8 +400,8 @@ def classification_dataset(scene: Scene, design, progress=None) -> dict[str, np.
 
 
 def dataset_info(scene: Scene, design) -> dict:
-    """The folder's ``dataset.json`` for ``whisker.data.dataset.load_csv_folder``: whisker count, the sense
-    of the whisker numbering in the camera image (``whisker.data.dataset.design_sense``) and the row order:
+    """The folder's ``dataset.json`` for ``whisker.data.dataset_files.load_csv_folder``: whisker count, the sense
+    of the whisker numbering in the camera image (``whisker.data.dataset_files.design_sense``) and the row order:
     pose-major, ``trials_per_pose`` rows per sensor rotation (row = trials * rotation + trial), so each
     row's trial id and pose (rotation index) are known."""
     from whisker.sim.contract import design_sense
@@ -370,12 +416,13 @@ def dataset_csv(rows: np.ndarray) -> str:
     return "".join(",".join(str(int(v)) for v in r) + "\n" for r in rows)
 
 
-def run(kind: str, scene: Scene, design, files: dict, progress=None) -> dict:
-    """Run a contact experiment, add its files to `files`, return summary entries."""
+def run(kind: str, scene: Scene, design, files: dict, progress=None, jobs: int = 1) -> dict:
+    """Run a contact experiment, add its files to `files`, return summary entries (`jobs`: joblib
+    worker processes for the grasp table)."""
     from whisker.sim.run import png_bytes
 
     if kind == "grasp":
-        tab = grasp_table(scene, design, progress)
+        tab = grasp_table(scene, design, progress, n_jobs=jobs)
         files["grasp_table.md"] = grasp_markdown(tab)
         files["grasp_table.csv"] = grasp_csv(tab)
         order = {n: bool(o["strict"]) for n, o in tab["order"].items()}
