@@ -74,3 +74,19 @@ def test_gerbers_and_drill_are_byte_stable(placed, tmp_path):
     for n in a:
         assert (tmp_path / "a" / n).read_bytes() == (tmp_path / "b" / n).read_bytes(), n
         assert "CreationDate" not in (tmp_path / "a" / n).read_text()
+
+
+@needs_kicad
+def test_twelve_coil_placement_has_no_drc_error(tmp_path):
+    """12 coils (3 connectors up the left edge, two PCA9685s, four INA3221s): every part placed and
+    every plane pad fanned out without a DRC error (courtyards, clearances) before routing."""
+    d = default_design('driver.type="HAT"', "whiskers.count=12", 'wiring.expander="pca9685"',
+                       "wiring.pca9685_address=0x44")
+    spec = layout.place(hat.build_circuit(d))
+    (tmp_path / "spec.json").write_text(json.dumps(spec))
+    first = kicad.run_job("build", tmp_path, spec=tmp_path / "spec.json", board=tmp_path / "p.kicad_pcb", dsn="")
+    tracks, vias = kicad.fanout(spec, first["pads"])
+    (tmp_path / "spec.json").write_text(json.dumps({**spec, "tracks": tracks, "vias": vias}))
+    kicad.run_job("build", tmp_path, spec=tmp_path / "spec.json", board=tmp_path / "u.kicad_pcb", dsn="")
+    rep = kicad.drc(tmp_path / "u.kicad_pcb", tmp_path / "drc.json")
+    assert rep["errors"] == 0, rep
