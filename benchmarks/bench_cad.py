@@ -29,7 +29,7 @@ import cadquery as cq  # noqa: E402
 import trimesh  # noqa: E402
 
 from common import RESULTS, machine_line, markdown_table, save_figure, write_csv, write_text  # noqa: E402
-from whisker.cad import checks  # noqa: E402
+from whisker.cad.verify import checks  # noqa: E402
 from whisker.cad.parts import PARTS  # noqa: E402
 from whisker.design import default_design  # noqa: E402
 
@@ -93,7 +93,7 @@ SWEEP_COUNTS, SWEEP_RADII = [4, 8, 12, 16], [8.0, 14.0, 20.0]
 
 
 def sweep_timings() -> dict:
-    from whisker.cad.sweep import sweep
+    from whisker.cad.verify.sweep import sweep
 
     sweep([8], [12.0], workers=2)  # warm the worker pool's imports once, outside the timing
     out = {}

@@ -26,7 +26,7 @@ from common import best_time_s, machine_line, markdown_table, write_csv, write_t
 
 import trimesh  # noqa: E402
 
-from whisker.cad import printcheck as pc  # noqa: E402
+from whisker.cad.verify import printcheck as pc  # noqa: E402
 from whisker.cad.build import build  # noqa: E402
 from whisker.cad.parts import PARTS  # noqa: E402
 from whisker.design import default_design  # noqa: E402

@@ -175,7 +175,7 @@ docs-fuzz: $(BIN)/.installed
 docs-guide: $(BIN)/.installed
 	$(BIN)/python -c "from whisker.design import load_design; from whisker.cad import guide_images; \
 		guide_images.write_guide_images(load_design(), 'docs/images/build')"
-	$(STAMP) --command "make guide (whisker.cad.guide_images.write_guide_images)" docs/images/build/*.png
+	$(STAMP) --command "make guide (whisker.cad.pictures.guide_images.write_guide_images)" docs/images/build/*.png
 
 docs-ros-frames: $(BIN)/.installed
 	mkdir -p $(DOCS_RUNS)

@@ -10,8 +10,9 @@ import pytest
 
 from whisker.design import fasteners as fz
 from whisker.design import flanges
-from whisker.cad import adapter, mount, walls
-from whisker.cad.checks import describe_circles, holes, section, to_mesh
+from whisker.cad.solids import adapter, mount
+from whisker.cad.verify import walls
+from whisker.cad.verify.checks import describe_circles, holes, section, to_mesh
 from whisker.design import DesignError, default_design
 
 PRESETS = ("iso9409_50_4_m6", "iso9409_31_5_4_m5", "plain")

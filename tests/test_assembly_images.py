@@ -1,4 +1,4 @@
-"""Assembly pictures (whisker.cad.assembly_images): one PNG per step, the new parts highlighted."""
+"""Assembly pictures (whisker.cad.pictures.assembly_images): one PNG per step, the new parts highlighted."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from click.testing import CliRunner
 from matplotlib.colors import to_rgb
 from matplotlib.image import imread
 
-from whisker.cad import assembly_images as ai
-from whisker.cad import sequence
+from whisker.cad.pictures import assembly_images as ai
+from whisker.cad.assembly import sequence
 from whisker.design import default_design
 
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "images" / "assembly"

@@ -1,11 +1,11 @@
-"""The calibration board holder (hw/cad/board_holder.py): its board face on the marker plane, in the mount."""
+"""The calibration board holder (hw/cad/solids/board_holder.py): its board face on the marker plane, in the mount."""
 
 from __future__ import annotations
 
 import pytest
 
-from whisker.cad.board_holder import PAPER_MM, board_face_z, board_holder
-from whisker.cad.mount import mount
+from whisker.cad.solids.board_holder import PAPER_MM, board_face_z, board_holder
+from whisker.cad.solids.mount import mount
 from whisker.cad.parts import BY_NAME
 from whisker.design import default_design
 

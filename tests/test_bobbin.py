@@ -10,9 +10,10 @@ import trimesh
 from shapely.geometry import Point, Polygon
 
 from whisker import coil as coil_calc
-from whisker.cad import bobbin, reference, walls
-from whisker.cad import winding_jig as wj
-from whisker.cad.checks import describe_circles, holes, section, to_mesh
+from whisker.cad.solids import bobbin, reference
+from whisker.cad.verify import walls
+from whisker.cad.solids import winding_jig as wj
+from whisker.cad.verify.checks import describe_circles, holes, section, to_mesh
 from whisker.design import default_design
 
 
@@ -130,7 +131,7 @@ def test_bom_orders_the_wire_the_bobbin_takes_and_every_printed_part(d):
 def test_wound_coil_is_bobbin_and_full_annulus_with_the_rod_outside(d):
     """The winding's cross-section, measured on its solid, is a full annulus - core to the turns'
     build - all along its length; the rod stays outside it, in the tab."""
-    from whisker.cad import reference
+    from whisker.cad.solids import reference
 
     L = bobbin.layout(d)
     wound = coil_calc.winding(d).wound_outer_diameter_mm

@@ -9,8 +9,9 @@ import pytest
 
 from conftest import load_manifest
 from whisker import bom
-from whisker.bom import BomError, bom_rows, coil_wire, find_part, load_parts_table
-from whisker.cad import adapter, cover, mount
+from whisker.bom import BomError, bom_rows, coil_wire
+from whisker.part_numbers import find_part, load_parts_table
+from whisker.cad.solids import adapter, cover, mount
 from whisker.design import default_design
 
 

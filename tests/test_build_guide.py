@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from whisker.cad import assembly_images, guide, sequence
+from whisker.cad.pictures import assembly_images, guide
+from whisker.cad.assembly import sequence
 from whisker.design import DesignError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,7 +31,7 @@ def test_page_is_generated_from_the_data(data):
 
 
 def test_every_picture_named_in_the_guide_exists_and_make_guide_makes_it(data):
-    from whisker.cad import guide_images
+    from whisker.cad.pictures import guide_images
     from whisker.design import default_design
 
     _, steps, _ = data

@@ -8,7 +8,7 @@ import math
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from conftest import circles, run_cli, section_polygons
-from whisker.cad import checks
+from whisker.cad.verify import checks
 from whisker.cad.build import build_solids, evaluate
 from whisker.design import DesignError, default_design
 

@@ -13,7 +13,7 @@ from shapely.geometry import Point
 from conftest import circles, load_manifest, load_part_mesh, run_cli, section_polygons
 from whisker.design import sizing
 from whisker.cad.build import evaluate
-from whisker.cad.sweep import sweep
+from whisker.cad.verify.sweep import sweep
 from whisker.design import DesignError, default_design
 
 OFF_PAPER = [(5, 14.0), (16, 20.0), (4, 7.0)]
@@ -100,7 +100,7 @@ def test_closed_form_bounds_refuse_before_any_solid(tmp_path):
     import subprocess
     import sys
 
-    from whisker.cad.sweep import evaluate_point
+    from whisker.cad.verify.sweep import evaluate_point
     from whisker.design import load_design
     from whisker.design.bounds import refusals
 

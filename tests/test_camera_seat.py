@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from whisker.design import camera_boards
-from whisker.cad import camera_seat
-from whisker.cad.checks import holes, section, to_mesh
-from whisker.cad.shapes import cut_all, cylinder
+from whisker.cad.solids import camera_seat
+from whisker.cad.verify.checks import holes, section, to_mesh
+from whisker.cad.solids.shapes import cut_all, cylinder
 from whisker.design import default_design
 
 FACE, BOTTOM = -40.0, -42.0

@@ -10,7 +10,8 @@ import pytest
 from conftest import peer_data, run_cli
 from test_dataset import synthetic, write_tracks
 from whisker.data import classify as C
-from whisker.data.dataset import PAPER_OBJECTS, DatasetError, load_peer, write_csv_folder
+from whisker.data.dataset import PAPER_OBJECTS, DatasetError
+from whisker.data.dataset_files import load_peer, write_csv_folder
 
 
 def test_paper_configuration():

@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from conftest import peer_data, run_cli
 from test_dataset import synthetic
 from whisker.data import classify as C
-from whisker.data.dataset import PAPER_OBJECTS, augment_rotations, load_peer, rotate, write_csv_folder
+from whisker.data.dataset import PAPER_OBJECTS, augment_rotations, rotate
+from whisker.data.dataset_files import load_peer, write_csv_folder
 from whisker.data.features import CyclicDFTFeatures, PolarFeatures
 from whisker.data.models import KINDS, make_model
 from whisker.data.symmetry import contact_pattern, pairing_table

@@ -156,7 +156,7 @@ def test_recplot_refuses_unknown_align(session, tmp_path):
 # -- whisker classify --------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def data(tmp_path_factory):
-    from whisker.data.dataset import write_csv_folder
+    from whisker.data.dataset_files import write_csv_folder
 
     base = tmp_path_factory.mktemp("cls")
     write_csv_folder(synthetic(n_obj=3, trials=3, poses=6, R=2, W=8), base / "data")
@@ -171,7 +171,7 @@ def test_classify_refuses_a_single_class(data, tmp_path):
 
 
 def test_classify_refuses_too_few_rows_per_class(tmp_path):
-    from whisker.data.dataset import write_csv_folder
+    from whisker.data.dataset_files import write_csv_folder
 
     ds = synthetic(n_obj=2, trials=1, poses=1, R=2, W=8)      # one sample per object
     write_csv_folder(ds, tmp_path / "d")

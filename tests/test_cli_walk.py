@@ -102,7 +102,7 @@ def param_flag(param: click.Parameter) -> str | None:
 def world(tmp_path_factory):
     """Valid inputs (dataset, model, session, scene) and hostile files, made once."""
     from whisker.data.classify import fit_quiet, make_classifier, save_model
-    from whisker.data.dataset import write_csv_folder
+    from whisker.data.dataset_files import write_csv_folder
     from whisker.design import default_design
 
     base = tmp_path_factory.mktemp("walk")

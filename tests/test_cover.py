@@ -6,8 +6,9 @@ import pytest
 from shapely.geometry import Point, box
 
 from whisker.design import fasteners as fz
-from whisker.cad import cover, walls
-from whisker.cad.checks import describe_circles, holes, section, to_mesh
+from whisker.cad.solids import cover
+from whisker.cad.verify import walls
+from whisker.cad.verify.checks import describe_circles, holes, section, to_mesh
 from whisker.design import default_design
 
 

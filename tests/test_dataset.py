@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import peer_data
-from whisker.data.dataset import (PEER_REST_PX, DatasetError, augment_rotations, load_csv_folder, load_peer,
-                             load_tracks, make_dataset, rotate, sense_from_positions, write_csv_folder)
+from whisker.data.dataset import PEER_REST_PX, DatasetError, augment_rotations, make_dataset, rotate, sense_from_positions
+from whisker.data.dataset_files import load_csv_folder, load_peer, load_tracks, write_csv_folder
 
 
 def synthetic(n_obj=3, trials=3, poses=6, R=2, W=8, seed=0, scale_px=8.0):
@@ -176,7 +176,7 @@ def test_tracks_invalid_whiskers(tmp_path):
 
 
 def test_pose_major_folder_and_design_defaults(tmp_path):
-    from whisker.data.dataset import design_sense
+    from whisker.data.dataset_files import design_sense
     from whisker.design import default_design
 
     ds = synthetic(n_obj=2, trials=3, poses=4, R=1, W=6)

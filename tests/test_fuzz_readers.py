@@ -1,7 +1,7 @@
 """Hypothesis fuzzing of the file readers: every mutant of a valid file is read or refused in one line.
 
 Readers: scene TOML (whisker.sim.load_scene), recording sessions (whisker.data.recording.load_session),
-datasets (whisker.data.dataset.load_csv_folder), classifier models (whisker.data.classify.load_model) and lens
+datasets (whisker.data.dataset_files.load_csv_folder), classifier models (whisker.data.classify.load_model) and lens
 calibration files (whisker.vision.markers.load_calibration). Mutations of a valid file: truncation, byte
 flips, wrong columns (a header renamed or a column dropped), and numbers replaced by NaN, inf or
 1e308. For every mutant:
@@ -129,7 +129,7 @@ def mutate_copy(src: Path, rel: str, fn) -> Path:
 @pytest.fixture(scope="module")
 def valid(tmp_path_factory):
     from whisker.data.classify import fit_quiet, make_classifier, save_model
-    from whisker.data.dataset import write_csv_folder
+    from whisker.data.dataset_files import write_csv_folder
     from whisker.design import default_design
 
     base = tmp_path_factory.mktemp("valid")
@@ -194,7 +194,8 @@ def test_recording_session(valid, data):
 @FUZZ
 @given(data=st.data())
 def test_dataset_folder(valid, data):
-    from whisker.data.dataset import DatasetError, load_csv_folder
+    from whisker.data.dataset import DatasetError
+    from whisker.data.dataset_files import load_csv_folder
 
     rel = data.draw(st.sampled_from(["obj0.csv", "obj1.csv", "dataset.json"]))
     kind, fn = data.draw(mutation((valid / "data" / rel).stat().st_size, text=True))

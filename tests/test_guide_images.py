@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from whisker.cad import assembly_images as ai
-from whisker.cad import guide_images, reference, winding_jig
+from whisker.cad.pictures import assembly_images as ai
+from whisker.cad.pictures import guide_images
+from whisker.cad.solids import reference, winding_jig
 from whisker.design import default_design, sizing
 
 

@@ -1,7 +1,7 @@
 """The HAT's KiCad board (needs KiCad 9: pcbnew in the system python3 and kicad-cli; CI installs both
 through scripts/system-deps, so these run there). Placement as pcbnew builds it, the plane fanout
 (every GND/VM pad joined to its plane on copper: DRC finds no unconnected GND/VM item and no error on
-the placed, plane-filled board), stable Gerber/drill bytes, and the SES unit fix for freeroute."""
+the placed, plane-filled board) and stable Gerber/drill bytes. The routed board: tests/test_hat_routed.py."""
 
 from __future__ import annotations
 
@@ -17,24 +17,6 @@ HAVE_KICAD, WHY = kicad.kicad_status()
 needs_kicad = pytest.mark.skipif(not HAVE_KICAD, reason=f"KiCad 9 absent: {WHY}")
 
 
-def test_ses_resolution_fix():
-    ses = "(session x (routes (resolution um 10) (network_out (net A (wire (path F.Cu 300 0 0 1000 0))))))"
-    assert "(resolution um 1)" in kicad.fix_ses_resolution(ses)
-    assert "1000 0" in kicad.fix_ses_resolution(ses)  # coordinates untouched
-
-
-def test_router_dsn_keeps_planes_out_and_adds_keepouts():
-    dsn = ("(pcb x (structure (rule (width 200) (clearance 200) (clearance 50 (type smd_smd))))\n"
-           "  (network\n    (net GND\n      (pins U1-1 U2-1)\n    )\n    (net SIG\n      (pins U1-2 U2-2)\n    )\n  ))")
-    spec = {"rules": {"router_clearance": 0.33}, "vias": [{"at": [1.0, 2.0], "diameter": 0.45}],
-            "tracks": [{"start": [0, 0], "end": [1, 0], "width": 0.2, "layer": "F.Cu"}]}
-    out = kicad.router_dsn(dsn, spec, ["GND"])
-    assert "(net GND" not in out and "(net SIG" in out
-    assert "(clearance 330.0)" in out and "(clearance 50 (type smd_smd))" in out
-    assert out.count("(keepout") == 3   # the via on F.Cu and B.Cu, the track on F.Cu
-    assert "(rect F.Cu 775.0 -2225.0 1225.0 -1775.0)" in out  # DSN y points up
-
-
 @pytest.fixture(scope="module")
 def placed(tmp_path_factory):
     if not HAVE_KICAD:
@@ -46,7 +28,7 @@ def placed(tmp_path_factory):
     first = kicad.run_job("build", work, spec=work / "spec.json", board=work / "placed.kicad_pcb", dsn="")
     tracks, vias = kicad.fanout(spec, first["pads"])
     (work / "spec.json").write_text(json.dumps({**spec, "tracks": tracks, "vias": vias}))
-    kicad.run_job("build", work, spec=work / "spec.json", board=work / "unrouted.kicad_pcb", dsn=work / "b.dsn")
+    kicad.run_job("build", work, spec=work / "spec.json", board=work / "unrouted.kicad_pcb", dsn="")
     kicad.run_job("fill", work, board=work / "unrouted.kicad_pcb", out=work / "filled.kicad_pcb")
     return work, d, spec, first
 
@@ -92,3 +74,19 @@ def test_gerbers_and_drill_are_byte_stable(placed, tmp_path):
     for n in a:
         assert (tmp_path / "a" / n).read_bytes() == (tmp_path / "b" / n).read_bytes(), n
         assert "CreationDate" not in (tmp_path / "a" / n).read_text()
+
+
+@needs_kicad
+def test_twelve_coil_placement_has_no_drc_error(tmp_path):
+    """12 coils (3 connectors up the left edge, two PCA9685s, four INA3221s): every part placed and
+    every plane pad fanned out without a DRC error (courtyards, clearances) before routing."""
+    d = default_design('driver.type="HAT"', "whiskers.count=12", 'wiring.expander="pca9685"',
+                       "wiring.pca9685_address=0x44")
+    spec = layout.place(hat.build_circuit(d))
+    (tmp_path / "spec.json").write_text(json.dumps(spec))
+    first = kicad.run_job("build", tmp_path, spec=tmp_path / "spec.json", board=tmp_path / "p.kicad_pcb", dsn="")
+    tracks, vias = kicad.fanout(spec, first["pads"])
+    (tmp_path / "spec.json").write_text(json.dumps({**spec, "tracks": tracks, "vias": vias}))
+    kicad.run_job("build", tmp_path, spec=tmp_path / "spec.json", board=tmp_path / "u.kicad_pcb", dsn="")
+    rep = kicad.drc(tmp_path / "u.kicad_pcb", tmp_path / "drc.json")
+    assert rep["errors"] == 0, rep

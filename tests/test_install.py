@@ -170,7 +170,7 @@ def test_core_runs_the_sensor_commands_from_outside_the_checkout(core, tmp_path)
     assert res.stderr.startswith("done: peak coil temperature") and "guard trips [0, 0, 0, 0, 0, 0, 0, 0]" in res.stderr
 
     ds = synthetic(n_obj=3, trials=3, poses=6, R=8, W=8, scale_px=5.0)  # inside the 11 deg stop's marker travel
-    from whisker.data.dataset import write_csv_folder
+    from whisker.data.dataset_files import write_csv_folder
 
     write_csv_folder(ds, tmp_path / "data")
     model = tmp_path / "m.joblib"

@@ -8,9 +8,9 @@ from hypothesis import given, settings, strategies as st
 from shapely.geometry import Point, Polygon
 
 from conftest import section_polygons
-from whisker.cad import reference
-from whisker.cad.checks import to_mesh
-from whisker.cad.shapes import polar_xy, polygon_points
+from whisker.cad.solids import reference
+from whisker.cad.verify.checks import to_mesh
+from whisker.cad.solids.shapes import polar_xy, polygon_points
 from whisker.design import default_design, sizing
 
 

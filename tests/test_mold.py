@@ -1,5 +1,5 @@
 """The membrane mould: draft measured on the base's mesh, each rod's stop and axial slack measured
-on the base's and the ring's meshes, and the mould's walls (whisker.cad.mold, mold_checks)."""
+on the base's and the ring's meshes, and the mould's walls (whisker.cad.solids.mold, mold_checks)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,9 @@ import math
 
 import pytest
 
-from whisker.cad import mold, mold_checks, part_features, ring, walls
-from whisker.cad.checks import to_mesh
+from whisker.cad.solids import mold, ring
+from whisker.cad.verify import mold_checks, part_features, walls
+from whisker.cad.verify.checks import to_mesh
 from whisker.design import DesignError, default_design
 
 DESIGNS = {"default": (), "6 @ 10 mm": ("whiskers.count=6", "whiskers.ring_radius=10"),

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import pytest
 
-from whisker.cad import part_features, walls
+from whisker.cad.verify import part_features, walls
 from whisker.cad.build import wall_checks
-from whisker.cad.checks import to_mesh
+from whisker.cad.verify.checks import to_mesh
 from whisker.cad.parts import PARTS
 from whisker.design import default_design, fasteners
 
@@ -66,7 +66,7 @@ def test_coupon_label_glyphs_keep_a_wall_between_them():
     """Engraved with the font's spacing, "0.1" left 0.01 mm of plate between "0" and "."."""
     import itertools
 
-    from whisker.cad import coupon
+    from whisker.cad.solids import coupon
 
     d = default_design()
     lay = coupon.layout(d)
@@ -80,8 +80,8 @@ def test_coupon_label_glyphs_keep_a_wall_between_them():
 def test_mould_lid_pin_holes_have_no_roof():
     """The registration pins' holes go through the lid (a blind pocket left 0.5 mm of roof)."""
     from conftest import section_polygons
-    from whisker.cad import mold
-    from whisker.cad.checks import describe_circles, holes
+    from whisker.cad.solids import mold
+    from whisker.cad.verify.checks import describe_circles, holes
 
     d = default_design()
     lid = to_mesh(mold.mold_lid(d), d.export.linear_tolerance, d.export.angular_tolerance)

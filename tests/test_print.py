@@ -22,7 +22,7 @@ import trimesh
 from hypothesis import given, settings, strategies as st
 
 from conftest import ROOT, load_manifest, run_cli
-from whisker.cad import printcheck as pc
+from whisker.cad.verify import printcheck as pc
 from whisker.design import DesignError, default_design, design_from_dict
 from whisker.design.printer import ProfileError, bed_extent, load_profile, parse_ini
 
@@ -328,7 +328,7 @@ def test_coupon_has_rod_holes_and_magnet_pockets_at_every_clearance(default_buil
     from conftest import load_part_mesh, section_polygons
     from shapely.geometry import Polygon
 
-    from whisker.cad.coupon import column_x, layout
+    from whisker.cad.solids.coupon import column_x, layout
 
     d = default_design()
     lay = layout(d)
@@ -355,7 +355,7 @@ def test_coupon_has_rod_holes_and_magnet_pockets_at_every_clearance(default_buil
 
 
 def test_coupon_follows_the_design_clearances():
-    from whisker.cad.coupon import label, layout
+    from whisker.cad.solids.coupon import label, layout
 
     d = default_design("print.coupon_clearances=[0.05, 0.15, 0.25]")
     assert d.print.coupon_clearances == (0.05, 0.15, 0.25)
@@ -372,7 +372,7 @@ def test_render_writes_a_png_of_the_requested_size():
 
     from matplotlib.image import imread
 
-    from whisker.cad.preview import fine, render
+    from whisker.cad.pictures.preview import fine, render
 
     box = trimesh.creation.box(extents=[30, 10, 5])
     split = fine(box, 2.0)
@@ -385,7 +385,7 @@ def test_render_writes_a_png_of_the_requested_size():
 
 
 def test_assembly_has_every_whiskers_rod_coil_and_magnet(default_build):
-    from whisker.cad.preview import assembly_meshes
+    from whisker.cad.pictures.preview import assembly_meshes
 
     d = default_design()
     items = assembly_meshes(d, default_build, load_manifest(default_build))

@@ -1,4 +1,4 @@
-"""The assembly sequence (hw/assembly_sequence.toml) checked by sweeping each step (whisker.cad.sequence)."""
+"""The assembly sequence (hw/assembly_sequence.toml) checked by sweeping each step (whisker.cad.assembly.sequence)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ import math
 
 import pytest
 
-from whisker.cad import mount, sequence
+from whisker.cad.solids import mount
+from whisker.cad.assembly import sequence
 from whisker.design import DesignError, default_design
 
 

@@ -47,9 +47,9 @@ def test_classification_sample_layout_128_ints():
 
 
 def test_dataset_json_gives_the_loader_trial_ids(tmp_path):
-    """The classification run writes dataset.json: whisker.data.dataset.load_csv_folder then knows the trial
+    """The classification run writes dataset.json: whisker.data.dataset_files.load_csv_folder then knows the trial
     and pose (sensor rotation) of each row without being told."""
-    dataset = pytest.importorskip("whisker.data.dataset", reason="whisker.data.dataset (issue 9) not installed")
+    from whisker.data import dataset_files as dataset
     from whisker.sim.runner import run_scene
 
     s = load_scene(SCENES / "classification.toml")

@@ -38,7 +38,7 @@ def test_a_number_in_the_file_pins_the_value():
     assert (d.membrane.inscribed_radius, d.mount.outer_radius, d.camera.distance) == (18.0, 25.0, 40.0)
     assert d.source("membrane.inscribed_radius") == "file"
     # the bolt circle follows the pinned outer radius, whatever the robot flange (its bolts are on
-    # the adapter's flange plate, whisker.cad.adapter)
+    # the adapter's flange plate, whisker.cad.solids.adapter)
     for preset in ("plain", "iso9409_50_4_m6", "iso9409_31_5_4_m5"):
         p = default_design("mount.outer_radius=25", f'adapter.preset="{preset}"')
         assert p.mount.mounting_bolt_radius == pytest.approx(25 - p.mounting_hole_diameter / 2

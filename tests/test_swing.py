@@ -1,5 +1,5 @@
 """Every solid of the assembly against every other over the whole swing, the wound coil and its
-leads included (whisker.cad.swing, whisker.design.leads)."""
+leads included (whisker.cad.assembly.swing, whisker.design.leads)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,8 @@ import pytest
 
 from whisker.design import former
 from whisker.design import leads
-from whisker.cad import mount, reference, swing
+from whisker.cad.solids import mount, reference
+from whisker.cad.assembly import swing
 from whisker.design import default_design
 
 
@@ -91,7 +92,7 @@ def test_off_paper_rings_still_build_and_go_together_with_the_wound_coil(count, 
     """6 @ 10 mm and 12 @ 12 mm: every solid check (the swing included) and mesh check passes, and
     every assembly step reaches its place; the crowding bound (the tab's inner face) leaves room."""
     from whisker.design import sizing
-    from whisker.cad import sequence
+    from whisker.cad.assembly import sequence
     from whisker.cad.build import build_solids, evaluate
 
     d = default_design(f"whiskers.count={count}", f"whiskers.ring_radius={radius}")

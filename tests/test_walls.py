@@ -1,4 +1,4 @@
-"""The wall check (whisker.cad.walls) measured on meshes: planted thin walls are found and named."""
+"""The wall check (whisker.cad.verify.walls) measured on meshes: planted thin walls are found and named."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import math
 import cadquery as cq
 import pytest
 
-from whisker.cad import part_features, walls
+from whisker.cad.verify import part_features, walls
 from whisker.cad.build import build_solids
-from whisker.cad.checks import to_mesh
-from whisker.cad.shapes import cone, cut_all, cylinder
+from whisker.cad.verify.checks import to_mesh
+from whisker.cad.solids.shapes import cone, cut_all, cylinder
 from whisker.design import default_design
 
 PLATE = ((-15.0, -15.0, 0.0), (15.0, 15.0, 6.0))

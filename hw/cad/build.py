@@ -19,10 +19,12 @@ import trimesh
 from whisker.design import Design
 from whisker.files import atomic_write_json, drop_stale_staging, publish, staging_dir
 
-from . import checks, mold_checks, sequence
-from .assembly import export_step, sensor_assembly
-from .buildkey import FORMATS, build_key, content_sha256, file_sha256, fix_step_timestamp
-from .parts import PARTS, print_pose, print_transform
+from whisker.cad.verify import checks, mold_checks
+
+from whisker.cad.assembly import sequence
+from whisker.cad.assembly.model import export_step, sensor_assembly
+from whisker.cad.buildkey import FORMATS, build_key, content_sha256, file_sha256, fix_step_timestamp
+from whisker.cad.parts import PARTS, print_pose, print_transform
 
 
 class DesignRefused(ValueError):
@@ -184,10 +186,10 @@ def mesh_design_checks(d: Design, meshes: dict[str, trimesh.Trimesh]) -> list[ch
 
 def wall_checks(d: Design, meshes: dict[str, trimesh.Trimesh]) -> list[checks.Check]:
     """No wall thinner than the process allows between two named features of any printed part,
-    measured on its mesh (whisker.cad.walls); parts in parallel on two workers (joblib)."""
+    measured on its mesh (whisker.cad.verify.walls); parts in parallel on two workers (joblib)."""
     from joblib import Parallel, delayed
 
-    from . import part_features, walls
+    from whisker.cad.verify import part_features, walls
 
     jobs = [(name, meshes[name], feats, minw, sep, own) for name, (feats, minw, sep, own)
             in part_features.all_printed(d).items() if name in meshes]

@@ -23,12 +23,13 @@ def source_digest() -> str:
     any of them invalidates old exports."""
     h = hashlib.sha256()
     hw = hw_dir()
-    sources = (sorted(Path(__file__).resolve().parent.glob("*.py"))
+    cad = Path(__file__).resolve().parent
+    sources = (sorted(cad.rglob("*.py"))   # the subpackages (solids/, verify/, ...) too
                + sorted((_PACKAGE / "design").glob("*.py")) + [_PACKAGE / "files.py"]
                # the data the parts are built from (standards and datasheets, board drawings, the sequence)
                + [hw / n for n in ("fasteners.csv", "camera_boards.toml", "flanges.csv", "assembly_sequence.toml")])
     for p in sources:
-        h.update(p.name.encode())
+        h.update((str(p.relative_to(cad)) if p.is_relative_to(cad) else p.name).encode())
         h.update(p.read_bytes())
     return h.hexdigest()[:16]
 

@@ -11,7 +11,7 @@ import trimesh
 
 from whisker.design import Design
 
-from . import adapter, bobbin, board_holder, coupon, cover, mold, mount, reference, ring, winding_jig
+from whisker.cad.solids import adapter, bobbin, board_holder, coupon, cover, mold, mount, reference, ring, winding_jig
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,21 @@ def prepare(design: Design):
     return circuit, report, layout.place(circuit)
 
 
+#: the code that turns a placement spec into the routed board and its fabrication files
+BOARD_CODE = ("kicad.py", "kicad_job.py", "router.py", "fab.py")
+
+
+def input_digest(spec: dict) -> str:
+    """sha256 of what the routed board depends on: the placement spec and the code that routes and
+    exports it. ``hat_summary.json`` keeps it, so a test sees a stale committed board without routing."""
+    import hashlib
+
+    h = hashlib.sha256(json.dumps(spec, sort_keys=True).encode())
+    for name in BOARD_CODE:
+        h.update(Path(__file__).with_name(name).read_bytes())
+    return h.hexdigest()
+
+
 def build_hat(design: Design, out: str | Path, route: bool = True, log=print) -> dict:
     out = Path(out)
     circuit, report, spec = prepare(design)
@@ -68,6 +83,8 @@ def build_hat(design: Design, out: str | Path, route: bool = True, log=print) ->
                 res = kicad.route_board(spec, work, log=log)
                 drc = res["drc"]
                 summary["drc"] = drc
+                summary["input_digest"] = input_digest(spec)
+                summary["routed"] = {k: res[k] for k in ("fanout_vias", "routed_tracks", "routed_vias")}
                 if drc["errors"] or drc["unconnected"]:
                     raise kicad.BoardFailed(
                         f"DRC: {drc['errors']} error(s) {drc['error_types']}, {drc['unconnected']} unconnected "

@@ -31,6 +31,13 @@ def _cli(*args: str) -> None:
 def stabilise(path: Path) -> None:
     """Drop the date lines kicad-cli writes (everything else byte for byte)."""
     text = path.read_text()
+    if path.suffix == ".gbrjob":   # JSON: drop the key, keep the syntax (a dropped line leaves a dangling comma)
+        import json
+
+        job = json.loads(text)
+        job.get("Header", {}).pop("CreationDate", None)
+        path.write_text(json.dumps(job, indent=2) + "\n")
+        return
     path.write_text(_VOLATILE.sub("", text))
 
 

@@ -2,9 +2,11 @@
 
 Steps (``route_board``): placement spec (whisker.pcb.layout) -> pcbnew builds the board in the system
 python3 (``kicad_job.py``: KiCad's module lives there, not in the virtualenv) -> every GND/VM pad gets
-its via to its plane (``fanout``, checked against every pad and via for clearance) -> Specctra DSN ->
-the pure-Python ``freeroute`` router (room engine with shove and channel packing; its default grid engine
-produced shorts) -> SES back into the board, zones filled -> ``kicad-cli pcb drc`` as the gate.
+its via to its plane (``fanout``, checked against every pad and via for clearance) -> the copper of
+that board (pads as pcbnew shapes them) -> the signal nets routed by whisker.pcb.router (a deterministic
+A* maze router; the pure-Python ``freeroute`` port mis-scaled its session, ignored pre-placed copper and
+dropped the 0.65 mm-pitch nets) -> the board rebuilt with those tracks, zones filled ->
+``kicad-cli pcb drc`` as the gate.
 """
 
 from __future__ import annotations
@@ -12,7 +14,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -20,12 +21,13 @@ from pathlib import Path
 
 from whisker.errors import EnvironmentFault
 
+from . import router
+
 JOB = Path(__file__).with_name("kicad_job.py")
 SYSTEM_PYTHON = os.environ.get("WHISKER_KICAD_PYTHON", "/usr/bin/python3")
 KICAD_VERSION = "9.0"
 INSTALL_HINT = ("KiCad 9 is needed for the board (kicad-cli and its python3 module): "
                 "run scripts/system-deps (Debian: apt-get install -t bookworm-backports kicad kicad-footprints)")
-ROUTER_ENGINE = os.environ.get("WHISKER_ROUTER_ENGINE", "room")
 KEEP_WORK = bool(os.environ.get("WHISKER_KEEP_PCB_WORK"))
 
 
@@ -144,7 +146,9 @@ def fanout(spec: dict, pads: list[dict]) -> tuple[list[dict], list[dict]]:
         x0, y0, x1, y1 = p["bbox"]
         hx, hy = (x1 - x0) / 2, (y1 - y0) / 2
         dx, dy = px - fx, py - fy
-        if hx > 1.3 * hy:      # an IC pin is long along its way out of the package
+        if p["ref"][0] in "RC":  # a passive's pad: away from the part's centre
+            horizontal = abs(dx) >= abs(dy)
+        elif hx > 1.3 * hy:      # an IC pin is long along its way out of the package
             horizontal = True
         elif hy > 1.3 * hx:
             horizontal = False
@@ -207,52 +211,6 @@ def fanout(spec: dict, pads: list[dict]) -> tuple[list[dict], list[dict]]:
 # routing
 # --------------------------------------------------------------------------------------------------
 
-def strip_plane_nets(dsn: str, nets) -> str:
-    """The DSN without the plane nets in its network: the router leaves them (their pads stay obstacles)."""
-    out = dsn
-    for n in nets:
-        out = re.sub(r"\(net %s\s*\n\s*\(pins[^)]*\)\s*\)" % re.escape(n), "", out)
-    return out
-
-
-def fix_ses_resolution(ses: str) -> str:
-    """freeroute writes SES coordinates in the DSN's unit (um) but repeats the DSN's ``(resolution um 10)``,
-    which KiCad reads as 0.1 um steps (everything 10x too small): declare one step per unit."""
-    return re.sub(r"\(resolution (\w+) \d+\)", r"(resolution \1 1)", ses)
-
-
-def router_dsn(dsn_text: str, spec: dict, plane_nets) -> str:
-    """The DSN the router gets: plane nets left out, the routing clearance raised (its via model), and
-    every pre-placed fanout via and track added as a keepout on the layers it occupies (freeroute takes
-    pads and keepouts as obstacles, not pre-placed wiring)."""
-    text = strip_plane_nets(dsn_text, plane_nets)
-    um = lambda v: f"{v * 1000:.1f}"
-    clr = spec["rules"]["router_clearance"]
-    text = re.sub(r"\(clearance [\d.]+\)", f"(clearance {um(clr)})", text)
-    outs = []
-    for v in spec.get("vias", []):
-        x, y = v["at"]
-        r = v["diameter"] / 2
-        for layer in ("F.Cu", "B.Cu"):
-            outs.append(f'    (keepout "" (rect {layer} {um(x - r)} {um(-y - r)} {um(x + r)} {um(-y + r)}))')
-    for t in spec.get("tracks", []):
-        (x0, y0), (x1, y1) = t["start"], t["end"]
-        h = t["width"] / 2
-        outs.append(f'    (keepout "" (rect {t["layer"]} {um(min(x0, x1) - h)} {um(-max(y0, y1) - h)} '
-                    f'{um(max(x0, x1) + h)} {um(-min(y0, y1) + h)}))')
-    if outs:
-        i = text.index("(structure") + len("(structure")
-        text = text[:i] + "\n" + "\n".join(outs) + text[i:]
-    return text
-
-
-def route_dsn(dsn_text: str, plane_nets) -> str:
-    from freeroute.route import route
-
-    opts = {"shove": True, "pack": True} if ROUTER_ENGINE == "room" else {"shove": True} if ROUTER_ENGINE == "exact" else {}
-    return fix_ses_resolution(route(dsn_text, engine=ROUTER_ENGINE, **opts))
-
-
 # --------------------------------------------------------------------------------------------------
 # DRC
 # --------------------------------------------------------------------------------------------------
@@ -287,17 +245,23 @@ def route_board(spec: dict, work: Path, log=print) -> dict:
     spec2 = {**spec, "tracks": [*spec.get("tracks", []), *tracks], "vias": [*spec.get("vias", []), *vias]}
     spec_path.write_text(json.dumps(spec2, indent=1))
     board0 = work / "unrouted.kicad_pcb"
-    dsn = work / "board.dsn"
-    run_job("build", work, spec=spec_path, board=board0, dsn=dsn)
-    log(f"pcb: routing {dsn.name} (freeroute {ROUTER_ENGINE} engine)")
-    ses_text = route_dsn(router_dsn(dsn.read_text(), spec2, spec["power_nets"]), spec["power_nets"])
-    ses = work / "board.ses"
-    ses.write_text(ses_text)
+    run_job("build", work, spec=spec_path, board=board0, dsn="")
+    items = run_job("copper", work, board=board0)["items"]
+    nets = sorted({it["net"] for it in items if it["kind"] == "pad" and it.get("net")} - set(spec["power_nets"]))
+    log(f"pcb: routing {len(nets)} signal nets (whisker.pcb.router, A* on a {router.STEP} mm grid)")
+    try:
+        r_tracks, r_vias = router.route(items, spec2, nets, log=log)
+    except router.RouteFailed as err:
+        raise BoardFailed(str(err)) from None
+    spec3 = {**spec2, "tracks": [*spec2["tracks"], *r_tracks], "vias": [*spec2["vias"], *r_vias]}
+    spec_path.write_text(json.dumps(spec3, indent=1))
+    run_job("build", work, spec=spec_path, board=work / "routed_unfilled.kicad_pcb", dsn="")
     routed = work / "board.kicad_pcb"
-    run_job("import_ses", work, board=board0, ses=ses, out=routed)
+    run_job("fill", work, board=work / "routed_unfilled.kicad_pcb", out=routed)
     log("pcb: kicad-cli pcb drc")
     report = drc(routed, work / "drc.json")
-    return {"board": routed, "drc": report, "fanout_vias": len(vias)}
+    return {"board": routed, "drc": report, "fanout_vias": len(vias), "routed_tracks": len(r_tracks),
+            "routed_vias": len(r_vias)}
 
 
 if __name__ == "__main__":  # pragma: no cover - manual runs

@@ -244,18 +244,20 @@ def copper(job):
                 poly = pcbnew.SHAPE_POLY_SET()
                 pad.TransformShapeToPolygon(poly, lid, 0, MM(0.001), pcbnew.ERROR_INSIDE)
                 items.append({"kind": "pad", "id": f"{fp.GetReference()}:{pad.GetNumber()}", "layer": name,
-                              "polys": _poly_points(poly), "through": pad.GetDrillSize().x > 0})
+                              "polys": _poly_points(poly), "through": pad.GetDrillSize().x > 0,
+                              "net": pad.GetNetname(), "at": [pcbnew.ToMM(pad.GetPosition().x),
+                                                              pcbnew.ToMM(pad.GetPosition().y)]})
     for t in board.GetTracks():
         if t.GetClass() == "PCB_VIA":
             c = t.GetPosition()
             items.append({"kind": "via", "id": f"via@{pcbnew.ToMM(c.x):.3f},{pcbnew.ToMM(c.y):.3f}",
                           "layer": "*", "at": [pcbnew.ToMM(c.x), pcbnew.ToMM(c.y)],
-                          "radius": pcbnew.ToMM(t.GetWidth(pcbnew.F_Cu)) / 2})
+                          "radius": pcbnew.ToMM(t.GetWidth(pcbnew.F_Cu)) / 2, "net": t.GetNetname()})
         else:
             a, b = t.GetStart(), t.GetEnd()
             items.append({"kind": "track", "id": f"track{len(items)}", "layer": t.GetLayerName(),
                           "start": [pcbnew.ToMM(a.x), pcbnew.ToMM(a.y)], "end": [pcbnew.ToMM(b.x), pcbnew.ToMM(b.y)],
-                          "width": pcbnew.ToMM(t.GetWidth())})
+                          "width": pcbnew.ToMM(t.GetWidth()), "net": t.GetNetname()})
     for z in board.Zones():
         for name, lid in COPPER:
             if z.IsOnLayer(lid) and z.HasFilledPolysForLayer(lid):
@@ -267,6 +269,9 @@ def copper(job):
 
 
 def main(argv):
+    # KiCad gives every item a random UUID, and orders items (hence the Gerber apertures) by them:
+    # a seeded generator makes the same job give the same board and the same Gerber bytes
+    pcbnew.KIID.SeedGenerator(20240601)
     job = json.load(open(argv[1]))
     {"build": build, "import_ses": import_ses, "copper": copper, "fill": refill}[job["op"]](job)
 

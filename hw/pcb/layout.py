@@ -40,12 +40,11 @@ CLEARANCE_MM = 0.2
 MIN_TRACK_MM = 0.2
 VIA_MM, VIA_DRILL_MM = 0.45, 0.2
 EDGE_CLEARANCE_MM = 0.2
-#: The router (freeroute) models a via as a square of the track width and ignores pre-placed copper
-#: but keepouts: it routes with this larger clearance, so its vias still clear by CLEARANCE_MM.
-ROUTER_CLEARANCE_MM = CLEARANCE_MM + (VIA_MM - MIN_TRACK_MM) / 2 + 0.005
 POWER_NETS = ("GND", "VM")                      # planes: In1.Cu and In2.Cu
 PLANE_LAYER = {"GND": "In1.Cu", "VM": "In2.Cu"}
 BOTTOM_SLOTS = 9
+#: the bridge's capacitor row above its supply pins: room for their plane vias and the VCP/VINT tracks
+CAP_ROW_MM = 6.2
 SLOT_PITCH_MM = 7.1             # JST PH vertical courtyard is 7.0 mm wide
 
 
@@ -73,7 +72,7 @@ class Rules:
     def as_dict(self) -> dict:
         return {"clearance": CLEARANCE_MM, "min_track": MIN_TRACK_MM, "track_width": self.track_width,
                 "via_diameter": VIA_MM, "via_drill": VIA_DRILL_MM, "edge_clearance": EDGE_CLEARANCE_MM,
-                "hole_clearance": 0.25, "router_clearance": round(ROUTER_CLEARANCE_MM, 3), "coil_width": self.coil_width, "supply_width": self.supply_width,
+                "hole_clearance": 0.25, "coil_width": self.coil_width, "supply_width": self.supply_width,
                 "coil_current_A": self.coil_current_A, "supply_current_A": self.supply_current_A}
 
 
@@ -95,7 +94,8 @@ def connector_slots(n: int, spec: dict) -> list[tuple[float, float, float]]:
     y = h - 10.5
     bottom = min(n, BOTTOM_SLOTS if n > 8 else n)
     extra = n - bottom
-    left, right = math.ceil(extra / 2), extra // 2
+    # the (at most 3) coils beyond the bottom row go up the left edge: the right edge is the supply's
+    left, right = extra, 0
     slots = []
     for k in range(left):  # left edge, top to bottom, leads entering from above
         slots.append((3.5, y - 8.0 - 7.5 * (left - 1 - k), 90.0))
@@ -131,7 +131,7 @@ def place(hat: Hat) -> dict:
     nb = math.ceil(n / 2)
     # bridges: centred over their coils' connectors on the bottom row, else evenly in the left part
     y_drv = H - 23.0
-    span = (1.5, W - 14.0)
+    span = (7.5 if any(s[2] == 90.0 for s in slots) else 1.5, W - 14.0)   # clear of a left connector column
     xs = []
     for k in range(nb):
         cons = [slots[i] for i in (2 * k, 2 * k + 1) if i < n]
@@ -151,32 +151,39 @@ def place(hat: Hat) -> dict:
             r = cap_refs.get(("ISEN%d" % i, "GND"))
             if r and i < n:
                 put(r, x + sgn * off, y_drv + 7.0, 90.0)
-        # caps above the supply pins: VINT (pin 14, x-0.97), VM (pin 12), VCP (pin 11, x+0.97)
-        for net_pair, dx in (((f"U{k + 1}_VINT", "GND"), -2.0), (("VM", "GND"), 0.0), ((f"U{k + 1}_VCP", "VM"), 2.0)):
+        # caps above the supply pins: VINT over pin 14 (x-0.97), VCP over pin 11 (x+0.97), their plane pads
+        # on top (vias upward), so the input pins at both row ends (15/16, 9/10) escape straight up beside
+        # them; the VM cap (both pads on planes) one row higher, lying, its vias left and right
+        for net_pair, dx, dy, rot in (((f"U{k + 1}_VINT", "GND"), -1.0, CAP_ROW_MM, 90.0),
+                                      (("VM", "GND"), 0.0, CAP_ROW_MM + 2.9, 0.0),
+                                      ((f"U{k + 1}_VCP", "VM"), 1.0, CAP_ROW_MM, 90.0)):
             ref = cap_refs.pop(net_pair, None) if net_pair[0] != "VM" else _pop_vm_cap(cap_refs, k)
             if ref:
-                put(ref, x + dx, y_drv - 6.2, 90.0)
-    # monitors: centred over the bridges of their coils
-    y_ina = y_drv - 13.0
+                put(ref, x + dx, y_drv - dy, rot)
+    # monitors: centred over the bridges of their coils (evenly over the span when there are four: the
+    # centres of overlapping bridge pairs would put two monitors within a package width)
+    y_ina = y_drv - 14.0
     mons = sorted(r for r in hat.parts if r.startswith("U1") and len(r) == 3)
     for m, ref in enumerate(mons):
         ks = sorted({c // 2 for c in range(3 * m, min(3 * m + 3, n))})
         x = sum(xs[k] for k in ks) / len(ks)
+        if len(mons) > 3:
+            x = span[0] + (span[1] - span[0]) * (m + 0.5) / len(mons)
         put(ref, x, y_ina, 0.0)
         c = _pop_vcc_cap(cap_refs)
-        put(c, x + 3.8, y_ina - 1.5, 90.0)
+        put(c, x + 3.8, y_ina - 1.5, 270.0)   # GND pad (and its via) down, away from a PCA9685 above
     # PCA9685s top left
     for k, ref in enumerate(sorted(r for r in hat.parts if r.startswith("U2") and len(r) == 3)):
-        put(ref, 8.5 + 12.5 * k, 12.4, 90.0)
-        put(_pop_vcc_cap(cap_refs), 8.5 + 12.5 * k + 5.6, 12.4, 90.0)
+        put(ref, 12.5 + 13.0 * k, 11.4, 90.0)
+        put(_pop_vcc_cap(cap_refs), 12.5 + 13.0 * k + 6.3, 11.4, 90.0)
     # EEPROM near header pins 27/28, its pull-ups and WP jumper beside it
     x_id = cx - 9.5 * pitch + 13 * pitch
     put("U31", x_id, 13.0, 0.0)
     put(_pop_vcc_cap(cap_refs), x_id + 5.0, 14.0, 90.0)
-    put(cap_refs.pop(("ID_SD", "+3V3")), x_id - 6.0, 10.5, 0.0)
-    put(cap_refs.pop(("ID_SC", "+3V3")), x_id - 6.0, 12.8, 0.0)
-    put(cap_refs.pop(("EE_WP", "+3V3")), x_id - 6.0, 15.1, 0.0)
-    put("JP1", x_id - 6.0, 17.6, 0.0)
+    put(cap_refs.pop(("ID_SD", "+3V3")), x_id - 6.0, 8.6, 0.0)
+    put(cap_refs.pop(("ID_SC", "+3V3")), x_id - 6.0, 10.7, 0.0)
+    put(cap_refs.pop(("EE_WP", "+3V3")), x_id - 6.0, 12.8, 0.0)
+    put("JP1", x_id - 6.0, 15.0, 0.0)
     # supply column on the right
     xr = W - 7.0
     put("J2", W - 5.6, 14.6, 90.0)
@@ -184,7 +191,7 @@ def place(hat: Hat) -> dict:
     put("Q1", xr - 1.5, 30.5, 0.0)
     put(cap_refs.pop(("QG", "GND")), xr + 4.2, 30.5, 90.0)
     put("C100", xr - 1.5, 38.5, 90.0)
-    put("J3", 3.2, 22.0, 90.0)
+    put("J3", 3.2, 14.0, 90.0)
     missing = [r for r in hat.parts if r not in at]
     if missing:
         raise ValueError(f"layout places no position for {missing}")

@@ -34,14 +34,18 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 from dataclasses import astuple, dataclass, fields
 from pathlib import Path
 from typing import Optional
 
 from whisker.design import Design
-from whisker.resources import hw_dir
+from whisker.errors import BomError  # noqa: F401  (the BOM's error, raised here and by its helpers)
+from whisker.part_measures import (  # noqa: F401  (the part lists and measures the BOM is made of)
+    CALIBRATION_PARTS, MEMBRANE_PART, PRINTED_PARTS, RESIN_PARTS, PrintSettings, cad_measures, cad_volumes, pla_grams,
+    print_settings, read_print_report,
+)
+from whisker.part_numbers import find_part, with_part_number
 from whisker.coil.driver import RESISTOR_LOAD, resistor_power_W, resistor_rating_W, series_resistance_ohm
 from whisker.drive.guard import full_scale_voltage
 from whisker.drive.pins import (LED_HEADER_PINS, PCA9685_CHANNELS, expander_boards_needed, module_makes_own_logic_supply,
@@ -50,20 +54,9 @@ from whisker.drive.pins import (LED_HEADER_PINS, PCA9685_CHANNELS, expander_boar
 COLUMNS = ("item", "category", "description", "quantity", "unit", "specification", "part_number",
            "example_source", "notes")
 
-#: Printed parts and the reference part the Ecoflex volume comes from (names of whisker.cad.parts).
-PRINTED_PARTS = ("mount", "mold_base", "mold_lid", "whisker_ring", "adapter", "flange_plate", "cover", "winding_jig")
-#: Printed once to set up the printer and the camera, not part of the sensor's PLA total.
-CALIBRATION_PARTS = ("tolerance_coupon", "board_holder")
-#: Printed on a resin printer (not PLA): one per whisker.
-RESIN_PARTS = ("bobbin",)
-MEMBRANE_PART = "membrane"
-
-#: Part numbers of well-known purchased parts, with their vendor and source (data, not code).
-PARTS_TABLE = hw_dir() / "bom_parts.csv"
 
 
-class BomError(ValueError):
-    """The BOM cannot be made for this design (one-line message)."""
+
 
 
 @dataclass(frozen=True)
@@ -104,112 +97,6 @@ def coil_wire(design: Design) -> CoilWire:
         raise BomError(f"coil winding: {err}") from err
     return CoilWire(float(w.wire_length_mm), "the turns that fit the bobbin, whisker.coil.winding",
                     bool(w.fits), int(w.turns))
-
-
-def cad_measures(design: Design) -> tuple[dict[str, float], dict[str, float]]:
-    """(volumes mm^3, surface areas mm^2) of the printed parts and the membrane, measured on the
-    CadQuery solids (whisker.cad.parts)."""
-    from whisker.cad.parts import BY_NAME
-
-    vols, areas = {}, {}
-    for name in (*PRINTED_PARTS, *RESIN_PARTS, MEMBRANE_PART):
-        try:
-            shape = BY_NAME[name].build(design)
-            vols[name], areas[name] = float(shape.Volume()), float(shape.Area())
-        except Exception as err:  # OCC raises its own types; name the part and keep one line
-            msg = str(err).splitlines()[0] if str(err) else type(err).__name__
-            raise BomError(f"CAD part '{name}' cannot be built for this design ({msg}); "
-                           "run `make stl` for the geometry checks") from err
-    return vols, areas
-
-
-def cad_volumes(design: Design) -> dict[str, float]:
-    """Volumes (mm^3) of the printed parts and the membrane."""
-    return cad_measures(design)[0]
-
-
-@dataclass(frozen=True)
-class PrintSettings:
-    """What the shell model needs from the printer profile: shell thickness (mm), infill fraction."""
-
-    shell_mm: float
-    infill: float
-
-
-def print_settings(design: Design) -> PrintSettings:
-    """Shell = perimeters x extrusion_width, infill = fill_density, from the design's printer profile
-    (whisker.design.printer; PrusaSlicer keys). An auto (0) or percentage width counts as 1.125 x nozzle,
-    PrusaSlicer's automatic perimeter width."""
-    from whisker.design.printer import load_profile
-
-    prof = load_profile(design.print.profile)
-
-    def num(key, default):
-        text = (prof.get(key) or "").strip()
-        try:
-            return float(text.rstrip("%")) / (100.0 if text.endswith("%") else 1.0)
-        except ValueError:
-            return default
-
-    width_text = (prof.get("perimeter_extrusion_width") or prof.get("extrusion_width") or "0").strip()
-    width = 0.0 if width_text.endswith("%") else num("perimeter_extrusion_width", 0.0) or num("extrusion_width", 0.0)
-    if width <= 0:
-        width = 1.125 * prof.nozzle_diameter
-    perimeters = num("perimeters", 2.0)
-    infill = num("fill_density", 0.2)
-    if not (0 <= infill <= 1) or perimeters < 0:
-        raise BomError(f"printer profile {prof.path.name}: fill_density {infill} or perimeters {perimeters} "
-                       "out of range")
-    return PrintSettings(perimeters * width, infill)
-
-
-def pla_grams(volume_mm3: float, area_mm2: float, density_g_cm3: float,
-              settings: Optional[PrintSettings] = None) -> float:
-    """Filament mass of one printed part, g.
-
-    Without settings: solid, V x density (upper bound). With settings: shell model,
-    density x (S + f (V - S)) with S = min(V, A x shell_mm) (walls, top and bottom alike).
-    """
-    if not (volume_mm3 > 0 and math.isfinite(volume_mm3)):
-        raise BomError(f"part volume must be positive and finite, got {volume_mm3}")
-    if settings is None:
-        return volume_mm3 * density_g_cm3 / 1000.0
-    if not (area_mm2 > 0 and math.isfinite(area_mm2)):
-        raise BomError(f"part surface area must be positive and finite, got {area_mm2}")
-    shell = min(volume_mm3, area_mm2 * settings.shell_mm)
-    return density_g_cm3 * (shell + settings.infill * (volume_mm3 - shell)) / 1000.0
-
-
-def read_print_report(path: str | Path, design: Optional[Design] = None) -> dict[str, float]:
-    """Filament grams per printed part from the slicer report ``print_report.json``
-    (``whisker print check``, whisker.cad.printcheck): ``parts[name]["gcode"]["filament_g"]``.
-
-    With `design`, a report of another design (``design_digest``) is refused. Raises BomError
-    naming what is wrong.
-    """
-    try:
-        data = json.loads(Path(path).read_text())
-    except (OSError, ValueError) as err:
-        raise BomError(f"cannot read the print report {path}: {err}") from None
-    if not isinstance(data, dict) or not isinstance(data.get("parts"), dict):
-        raise BomError(f"{path}: no 'parts' mapping in the print report")
-    if data.get("coarse"):
-        raise BomError(f"{path} comes from a coarse slice, whose filament grams are not the real print's: "
-                       "run the print check without --coarse")
-    if design is not None and data.get("design_digest") not in (None, design.digest()):
-        raise BomError(f"{path} is the print report of design {data.get('design_digest')}, not of this "
-                       f"design ({design.digest()}): run the print check for this design first")
-    grams: dict[str, float] = {}
-    for name, rec in data["parts"].items():
-        if not isinstance(rec, dict):
-            continue
-        g = rec.get("gcode") if isinstance(rec.get("gcode"), dict) else rec
-        v = g.get("filament_g")
-        if isinstance(v, (int, float)) and math.isfinite(v) and v >= 0:
-            grams[name] = float(v)
-    if not grams:
-        raise BomError(f"{path}: no part has a finite filament_g value")
-    return grams
 
 
 def _num(x: float, digits: int = 0) -> str:
@@ -476,7 +363,7 @@ def bom_rows(design: Design, volumes_mm3: dict[str, float], wire: CoilWire,
         "silicone-compatible grey paint; red paint marker", "any", "")
     consumables(d, volumes_mm3, add)
 
-    rows = [_with_part_number(r, d, fastener_parts.get(r.item)) for r in rows]
+    rows = [with_part_number(r, d, fastener_parts.get(r.item)) for r in rows]
     for r in rows:  # one-line fields keep the CSV diffable
         for f in fields(r):
             if "\n" in getattr(r, f.name):
@@ -488,88 +375,11 @@ def design_joints(design: Design) -> list:
     """Every fastened joint of the design (whisker.design.fasteners.Joint): the camera board's screws,
     the adapter's (mount, flange plate, robot) and the camera cover's."""
     from whisker.design import fasteners as fz
-    from whisker.cad import adapter, cover
+    from whisker.cad.solids import adapter, cover
 
     f = design.fasteners
     return [fz.Joint("camera board", f.camera_screw, f.camera_joint, 4, design.camera.board_thickness),
             *adapter.joints(design), *cover.joints(design)]
-
-
-@dataclass(frozen=True)
-class CatalogPart:
-    """A row of hw/bom_parts.csv: a purchased part's number, vendor and source."""
-
-    item: str
-    part_number: str
-    vendor: str
-    kind: str  # exact | example
-    matches: tuple[tuple[str, str], ...]
-    source: str
-
-
-def load_parts_table(path: str | Path = PARTS_TABLE) -> list[CatalogPart]:
-    """The part-number table (hw/bom_parts.csv; '#' lines are comments)."""
-    try:
-        text = Path(path).read_text()
-    except OSError as err:
-        raise BomError(f"part-number table {path}: {err.strerror or err}") from None
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    out = []
-    for i, rec in enumerate(csv.DictReader(io.StringIO("\n".join(lines)))):
-        try:
-            matches = tuple(tuple(x.split("=", 1)) for x in (rec["matches"] or "").split(";") if x.strip())
-            if any(len(m) != 2 for m in matches) or rec["kind"] not in ("exact", "example"):
-                raise ValueError("matches must be key=value; kind exact or example")
-            if not (rec["item"] and rec["part_number"] and rec["vendor"] and rec["source"]):
-                raise ValueError("item, part_number, vendor and source are required")
-            out.append(CatalogPart(rec["item"], rec["part_number"], rec["vendor"], rec["kind"], matches, rec["source"]))
-        except (KeyError, TypeError, ValueError) as err:
-            raise BomError(f"part-number table {path} row {i + 1}: {err}") from None
-    return out
-
-
-def _matches(design: Design, key: str, want: str) -> bool:
-    obj = design
-    for k in key.split("."):
-        obj = getattr(obj, k, None)
-    if obj is None:
-        raise BomError(f"part-number table: unknown design value {key!r}")
-    if isinstance(obj, (int, float)) and not isinstance(obj, bool):
-        try:
-            w = float(want)
-        except ValueError:
-            return False
-        return abs(float(obj) - w) <= 0.01 * abs(w)
-    return str(obj) == want
-
-
-def find_part(item: str, design: Design, table: list[CatalogPart] | None = None) -> CatalogPart | None:
-    """The first row of the part-number table for `item` whose design values match, or None."""
-    table = load_parts_table() if table is None else table
-    for p in table:
-        if p.item == item and all(_matches(design, k, v) for k, v in p.matches):
-            return p
-    return None
-
-
-def _with_part_number(row: BomRow, design: Design, fastener_line: dict | None) -> BomRow:
-    """The row with its part number and vendor from hw/bom_parts.csv (screws and inserts from
-    their hw/fasteners.csv line)."""
-    from dataclasses import replace
-
-    item, fill = row.item, {}
-    if fastener_line is not None:
-        from whisker.design.fasteners import fastener
-
-        item = "screw" if row.item.startswith("screw_") else "insert"
-        f = fastener(fastener_line["size"])
-        fill = {"size": f.size, "length": f"{fastener_line.get('length', 0):g}", "insert_part": f.insert_part}
-    part = find_part(item, design)
-    if part is None:
-        return row
-    number = part.part_number.format(**fill) if fill else part.part_number
-    how = "" if part.kind == "exact" else "example: "
-    return replace(row, part_number=number, example_source=f"{how}{part.vendor} ({part.source})")
 
 
 def bom_csv(rows: list[BomRow]) -> str:

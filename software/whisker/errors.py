@@ -30,6 +30,10 @@ class BadInput(RuntimeError):
 class EnvironmentFault(RuntimeError):
     """The machine's fault, not the input's (a camera that cannot be opened): status 1."""
 
+
+class BomError(ValueError):
+    """The BOM cannot be made for this design (one-line message)."""
+
 #: errno -> (exit status, what to do)
 _OS_HINTS = {
     errno.ENOENT: (BAD_INPUT, "check the path"),

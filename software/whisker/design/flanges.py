@@ -1,7 +1,7 @@
 """Robot flange presets (hw/flanges.csv: ISO 9409-1 mechanical interfaces, and a plain plate) by name.
 
 The table is data with its source named in the file; this module only reads and validates it. The
-robot adapter (whisker.cad.adapter) and the design's [adapter] section read it. Units: mm.
+robot adapter (whisker.cad.solids.adapter) and the design's [adapter] section read it. Units: mm.
 """
 
 from __future__ import annotations

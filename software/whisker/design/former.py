@@ -1,6 +1,6 @@
 """The coil former (bobbin) and the winding space it leaves: pure geometry, no CadQuery.
 
-One source for the coil as it can be made. The CAD part (whisker.cad.bobbin), the coil calculator
+One source for the coil as it can be made. The CAD part (whisker.cad.solids.bobbin), the coil calculator
 (whisker.coil: the winding window, so the turns, resistance and force), the sizing rules (how far a
 coil reaches: whisker.design.sizing) and the mount's cavity (whisker.design.Design.cavity_radius) all read it.
 
@@ -126,7 +126,7 @@ def envelope_points(d, tilt_deg: float = 0.0) -> np.ndarray:
 
 def tilt(d, p: np.ndarray, tilt_deg: float) -> np.ndarray:
     """Points of whisker 0 rotated by tilt_deg about its pivot (the rotation of
-    whisker.cad.reference._tilt: retraction positive moves what is below the pivot outwards)."""
+    whisker.cad.solids.reference._tilt: retraction positive moves what is below the pivot outwards)."""
     R, zp = d.whiskers.ring_radius, d.membrane.thickness / 2
     b = math.radians(-tilt_deg)
     xr, zr = p[:, 0] - R, p[:, 2] - zp

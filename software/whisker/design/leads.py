@@ -31,7 +31,7 @@ SWING_SAMPLES = 7
 
 def open_radius(d, z: float) -> float:
     """Radius (mm) within which the mount is open at height z below the coil cavity, in every
-    direction: the outline that whisker.cad.mount.cavity_profile revolves - the lens opening (straight
+    direction: the outline that whisker.cad.solids.mount.cavity_profile revolves - the lens opening (straight
     up to the optical centre when that lies below the cavity), then the cone out to the cavity's
     radius - and, below the lens holder pocket's top, that square pocket's inscribed half-width."""
     lv = sizing.mount_levels(d)

@@ -100,7 +100,7 @@ class Design(_Section):
     @model_validator(mode="after")
     def _buildable(self) -> "Design":
         # Only relations without which no solid can be built; everything the CAD can measure is
-        # measured on the solids by whisker.cad.checks instead.
+        # measured on the solids by whisker.cad.verify.checks instead.
         if self.coil.inner_diameter >= self.coil.outer_diameter:
             raise ValueError("coil.inner_diameter must be smaller than coil.outer_diameter")
         from whisker.design.fasteners import FastenerError, hole

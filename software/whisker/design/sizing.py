@@ -7,7 +7,7 @@ design and says why it is what it is. For the paper's sensor (8 whiskers at R = 
 give back the paper's sizes: membrane 16 mm, mount 22 mm, camera 35.2 mm below the markers.
 
 The mount's layout (heights of its features, lens opening, pocket and LED radii) lives here too,
-so that the design model can size the mount without CadQuery; ``whisker.cad.mount`` builds the
+so that the design model can size the mount without CadQuery; ``whisker.cad.solids.mount`` builds the
 solid from the same numbers.
 
 Units: mm and degrees. Coordinates as everywhere: z = 0 on the membrane's lower face, z up.
@@ -313,7 +313,7 @@ def mounting_bolt_radius(d: "Design", auto: frozenset = frozenset()) -> float:
     """As far out as the outer wall allows (the hole's wall outside each hole: print.min_wall, or an
     insert's wall from hw/fasteners.csv), so the holes keep the
     most material to the camera pocket; rounded down to 0.1 mm. The robot flange's bolts are on
-    another plate (whisker.cad.adapter's flange plate), so every flange takes the same mount."""
+    another plate (whisker.cad.solids.adapter's flange plate), so every flange takes the same mount."""
     m = d.mount
     need = _mounting_hole_needs(d) if m.mounting_hole_count else 0.0
     out = floor_step(m.outer_radius - d.mounting_hole_diameter / 2 - d.mounting_hole_wall, 0.1)

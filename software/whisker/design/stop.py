@@ -4,7 +4,7 @@ With ``actuation.end_stop = true`` the retraction of every whisker ends at ``whi
 a cylindrical post (``bobbin.stop_post_diameter``), centred on the coil axis on the outer flange's face,
 touches the magnet's face there. A current above the pull-in current then lands the coil on the stop
 (a defined pose, the coil clear of the magnet) instead of snapping it onto the magnet. One source for
-the CAD (whisker.cad.bobbin), the swing check (whisker.cad.swing), the coil physics (whisker.coil.tilt:
+the CAD (whisker.cad.solids.bobbin), the swing check (whisker.cad.assembly.swing), the coil physics (whisker.coil.tilt:
 the tilt is clamped at the stop) and the simulator (whisker.coil.kinematics).
 
 Geometry (whisker 0, mm, tilt retraction positive, pivot at the membrane's mid-plane; the rotation of

@@ -88,7 +88,7 @@ def predictions(design) -> dict:
 
 
 def cad_verdict(design) -> dict:
-    """The feasibility sweep's verdict (whisker.cad.sweep): ``evaluate`` runs every solid and mesh
+    """The feasibility sweep's verdict (whisker.cad.verify.sweep): ``evaluate`` runs every solid and mesh
     check without writing files; the first failed check is the refusal."""
     from whisker.cad.build import evaluate
 

@@ -3,7 +3,7 @@
 The cast membrane (``membrane.sides``-gon, ``membrane.inscribed_radius``, ``membrane.thickness``)
 carries ``whiskers.count`` rods (``whiskers.rod_diameter``) on ``whiskers.ring_radius``, each cast
 through its full thickness (the bonded length is the thickness: the rod stands on its stop in the
-mould, whisker.cad.mold). Its lower face is glued on the mount's seat ledge outside the seat's
+mould, whisker.cad.solids.mold). Its lower face is glued on the mount's seat ledge outside the seat's
 opening (``Design.neck_radius``), which is where it is held. The silicone is the design's
 ``membrane.material`` (hw/materials/, whisker.mechanics.materials): the small-strain limit of its
 neo-Hookean fit.

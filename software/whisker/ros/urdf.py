@@ -1,7 +1,7 @@
 """The sensor's URDF, generated from the design: tool flange, mount, camera, whisker ring, whiskers.
 
 Every number comes from the design model (whisker.design) and the adapter's layout
-(whisker.cad.adapter_layout, the numbers the CAD plates are built from), so a robot description that
+(whisker.cad.solids.adapter_layout, the numbers the CAD plates are built from), so a robot description that
 includes this URDF follows any change of the design file. No ROS package is needed to generate it.
 
 Frames (URDF: metres, radians; the sensor coordinates of hw/sensor.toml are mm, z = 0 on the
@@ -61,7 +61,7 @@ class Frames:
 
 def frames(design, preset: str | None = None) -> Frames:
     """The URDF's levels from the design and the adapter's layout (`preset`: adapter.preset override)."""
-    from whisker.cad.adapter_layout import layout
+    from whisker.cad.solids.adapter_layout import layout
     from whisker.design import sizing
 
     L = layout(design, preset)

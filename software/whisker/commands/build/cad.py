@@ -141,7 +141,7 @@ def sweep(design_file, overrides, counts, radii, out, workers):
         fail(f"design refused: {err}")
     from tqdm import tqdm
 
-    from whisker.cad.sweep import sweep as run_sweep, write_reports
+    from whisker.cad.verify.sweep import sweep as run_sweep, write_reports
 
     bar = tqdm(total=len(counts_l) * len(radii_l), desc="designs", unit="design", file=sys.stderr)
 
@@ -195,7 +195,7 @@ def assembly_images(design, out, size, page):
         if begin not in text:
             fail(f"--page {page}: no sequence table block ({begin} ... END SEQUENCE TABLE comments) to rewrite")
     check_out_path(out, "cad assembly-images", folder=True)
-    from whisker.cad.assembly_images import update_page, write_assembly_images
+    from whisker.cad.pictures.assembly_images import update_page, write_assembly_images
     from whisker.design import DesignError
 
     from tqdm import tqdm

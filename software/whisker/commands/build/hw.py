@@ -92,7 +92,7 @@ def pcb(design, out, no_diagram):
 @click.option("--no-route", is_flag=True, help="Circuit, ERC and placement only (no KiCad needed).")
 def hat(design, out, no_route):
     """The driver HAT for the design (driver.type is set to "HAT" for it): SKiDL circuit + ERC,
-    parts placed by code on the 65 x 56.5 mm HAT outline, routed (freeroute), checked by
+    parts placed by code on the 65 x 56.5 mm HAT outline, routed (whisker.pcb.router, a deterministic A* maze router), checked by
     `kicad-cli pcb drc` (0 errors, 0 unconnected), Gerbers/Excellon (dates stripped), JLCPCB BOM and
     CPL, top/bottom renders. Needs KiCad 9 (kicad-cli, pcbnew) unless --no-route.
 

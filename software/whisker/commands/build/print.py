@@ -57,7 +57,7 @@ def check(design, out, coarse, no_gcode, quiet):
     """
     from tqdm import tqdm
 
-    from whisker.cad.printcheck import ToolMissing, check_exports, find_tool, fmt_duration
+    from whisker.cad.verify.printcheck import ToolMissing, check_exports, find_tool, fmt_duration
 
     out = Path(out)
     try:  # before the (slow) build: a missing slicer is the first thing to hear about
@@ -83,7 +83,7 @@ def check(design, out, coarse, no_gcode, quiet):
         fail(str(err), code=3)
     finally:
         bar.close()
-    from whisker.cad.printcheck import PartPrint
+    from whisker.cad.verify.printcheck import PartPrint
 
     for part in report["parts"].values():
         click.echo(("  " if part["ok"] else "  FAILED ") + PartPrint(**part).line())
@@ -106,7 +106,7 @@ def preview(design, out, images, size):
     """PNG images of every printable part (as it lies on the bed) and of the assembly (cut open)."""
     from tqdm import tqdm
 
-    from whisker.cad.preview import write_previews
+    from whisker.cad.pictures.preview import write_previews
 
     out = Path(out)
     _ensure_build(design, out, quiet=False)

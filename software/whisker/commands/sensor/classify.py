@@ -19,7 +19,7 @@ def _data_option(f):
     return click.option("--data", "data", type=click.Path(file_okay=False), default=None,
                         help="Dataset folder of <object>.csv files: the authors' objCls folder (or its "
                              "parent), a simulated dataset, or one written by "
-                             "whisker.data.dataset.write_csv_folder. Default: $WHISKER_PEER_DATA.")(f)
+                             "whisker.data.dataset_files.write_csv_folder. Default: $WHISKER_PEER_DATA.")(f)
 
 
 def _objects_option(f):
@@ -62,7 +62,8 @@ def _params(kind, ds, hidden, epochs, lr, batch_size):
 
 
 def _load(data, objects, design):
-    from whisker.data.dataset import PAPER_OBJECTS, DatasetError, check_design, check_plausible, feature_limit_px, load
+    from whisker.data.dataset import PAPER_OBJECTS, DatasetError, check_design, check_plausible, feature_limit_px
+    from whisker.data.dataset_files import load
 
     data = data or os.environ.get("WHISKER_PEER_DATA")
     if not data:
@@ -241,7 +242,8 @@ def predict(design, model_file, input_file, tracks, invalid, as_json):
     import numpy as np
 
     from whisker.data import classify as C
-    from whisker.data.dataset import DatasetError, read_rows, load_tracks
+    from whisker.data.dataset import DatasetError
+    from whisker.data.dataset_files import read_rows, load_tracks
 
     try:
         bundle = C.load_model(model_file)

@@ -400,8 +400,8 @@ def classification_dataset(scene: Scene, design, progress=None) -> dict[str, np.
 
 
 def dataset_info(scene: Scene, design) -> dict:
-    """The folder's ``dataset.json`` for ``whisker.data.dataset.load_csv_folder``: whisker count, the sense
-    of the whisker numbering in the camera image (``whisker.data.dataset.design_sense``) and the row order:
+    """The folder's ``dataset.json`` for ``whisker.data.dataset_files.load_csv_folder``: whisker count, the sense
+    of the whisker numbering in the camera image (``whisker.data.dataset_files.design_sense``) and the row order:
     pose-major, ``trials_per_pose`` rows per sensor rotation (row = trials * rotation + trial), so each
     row's trial id and pose (rotation index) are known."""
     from whisker.sim.contract import design_sense
