@@ -23,14 +23,20 @@ def placed(tmp_path_factory):
         pytest.skip(f"KiCad 9 absent: {WHY}")
     work = tmp_path_factory.mktemp("hat")
     d = default_design('driver.type="HAT"')
+    spec, first = _place_and_fan_out(d, work)
+    kicad.run_job("fill", work, board=work / "unrouted.kicad_pcb", out=work / "filled.kicad_pcb")
+    return work, d, spec, first
+
+
+def _place_and_fan_out(d, work):
+    """Place the design's HAT (placed.kicad_pcb), fan its plane pads out (unrouted.kicad_pcb): (spec, pads)."""
     spec = layout.place(hat.build_circuit(d))
     (work / "spec.json").write_text(json.dumps(spec))
     first = kicad.run_job("build", work, spec=work / "spec.json", board=work / "placed.kicad_pcb", dsn="")
     tracks, vias = kicad.fanout(spec, first["pads"])
     (work / "spec.json").write_text(json.dumps({**spec, "tracks": tracks, "vias": vias}))
     kicad.run_job("build", work, spec=work / "spec.json", board=work / "unrouted.kicad_pcb", dsn="")
-    kicad.run_job("fill", work, board=work / "unrouted.kicad_pcb", out=work / "filled.kicad_pcb")
-    return work, d, spec, first
+    return spec, first
 
 
 @needs_kicad
@@ -82,11 +88,6 @@ def test_twelve_coil_placement_has_no_drc_error(tmp_path):
     every plane pad fanned out without a DRC error (courtyards, clearances) before routing."""
     d = default_design('driver.type="HAT"', "whiskers.count=12", 'wiring.expander="pca9685"',
                        "wiring.pca9685_address=0x44")
-    spec = layout.place(hat.build_circuit(d))
-    (tmp_path / "spec.json").write_text(json.dumps(spec))
-    first = kicad.run_job("build", tmp_path, spec=tmp_path / "spec.json", board=tmp_path / "p.kicad_pcb", dsn="")
-    tracks, vias = kicad.fanout(spec, first["pads"])
-    (tmp_path / "spec.json").write_text(json.dumps({**spec, "tracks": tracks, "vias": vias}))
-    kicad.run_job("build", tmp_path, spec=tmp_path / "spec.json", board=tmp_path / "u.kicad_pcb", dsn="")
-    rep = kicad.drc(tmp_path / "u.kicad_pcb", tmp_path / "drc.json")
+    _place_and_fan_out(d, tmp_path)
+    rep = kicad.drc(tmp_path / "unrouted.kicad_pcb", tmp_path / "drc.json")
     assert rep["errors"] == 0, rep
