@@ -77,8 +77,9 @@ def test_wheel_ships_every_data_file(wheel):
     names = set(zipfile.ZipFile(wheel).namelist())
 
     def data(folder):
+        # __pycache__ holds compiled caches (CPython's .pyc, numba's .nbi/.nbc for the HAT router), not data
         return {p.relative_to(ROOT / folder).as_posix() for p in (ROOT / folder).rglob("*")
-                if p.is_file() and p.suffix not in (".py", ".pyc")}
+                if p.is_file() and p.suffix not in (".py", ".pyc") and "__pycache__" not in p.parts}
 
     for folder, package in (("hw", "whisker/hw"), ("docs/sequences", "whisker/sequences"),
                             ("software/whisker/sim/scenes", "whisker/sim/scenes")):
