@@ -276,3 +276,10 @@ def test_unbuildable_resistor_refused_by_bom_and_pcb(tmp_path):
         assert r.returncode == 2, r.stderr
         assert "more than a 50 W part" in r.stderr and "Traceback" not in r.stderr
         assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_auto_is_zero_when_the_bare_bridge_sits_exactly_at_the_rating():
+    """3.8 ohm on a DRV8876 (no drop, 0.7 ohm) from 4.5 V gives exactly 3.8 V: the exact resistor is 0 up to
+    rounding (2e-16 ohm in floating point), so no resistor, not a 1e-16 ohm 'E24 value' (found by hypothesis)."""
+    br = driver.bridge("DRV8876")
+    assert driver.auto_series_resistance_ohm(br, 4.5, 3.8, 3.8) == 0.0

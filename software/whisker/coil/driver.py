@@ -192,7 +192,8 @@ def auto_series_resistance_ohm(bridge_: Bridge, supply_V: float, coil_ohm: float
         raise DriverError(f"series resistor needs a positive coil resistance and rating (got {coil_ohm!r} ohm, "
                           f"{max_coil_V!r} V)")
     exact = coil_ohm * (supply_V - bridge_.v0_typ) / max_coil_V - coil_ohm - bridge_.r_typ
-    if exact <= 0:
+    # a difference of nearly equal terms: within rounding of them, the bare bridge is exactly at the rating
+    if exact <= 1e-12 * (coil_ohm + bridge_.r_typ):
         return 0.0
     rs = nearest_preferred(exact, series, "up")
     # guard against rounding: the chosen value must keep the coil within the rating
