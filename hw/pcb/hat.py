@@ -168,19 +168,19 @@ def _build(sk, design: Design) -> Hat:
 
     counter = {"C": 0, "R": 0}
 
+    def passive(prefix, kind, a, b, value, fp, mpn=""):
+        """The next C<n> / R<n> between nets a and b."""
+        counter[prefix] += 1
+        p = two(f"{prefix}{counter[prefix]}", value, fp, kind, mpn)
+        net(a).connect(p[1])
+        net(b).connect(p[2])
+        return p
+
     def cap(a, b, value, fp, mpn=""):
-        counter["C"] += 1
-        c = two(f"C{counter['C']}", value, fp, "capacitor", mpn)
-        net(a).connect(c[1])
-        net(b).connect(c[2])
-        return c
+        return passive("C", "capacitor", a, b, value, fp, mpn)
 
     def res(a, b, value, fp, mpn=""):
-        counter["R"] += 1
-        r = two(f"R{counter['R']}", value, fp, "resistor", mpn)
-        net(a).connect(r[1])
-        net(b).connect(r[2])
-        return r
+        return passive("R", "resistor", a, b, value, fp, mpn)
 
     # --- the Pi header: every pin typed by its use -------------------------------------------------
     used = {}
