@@ -29,7 +29,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from common import best_time_s, machine_line, markdown_table, write_csv, write_text  # noqa: E402
-from whisker.bom import PRINTED_PARTS, cad_measures, pla_grams, print_settings  # noqa: E402
+from whisker.part_measures import PRINTED_PARTS, cad_measures, pla_grams, print_settings  # noqa: E402
 from whisker.design import default_design  # noqa: E402
 
 

@@ -13,9 +13,9 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from conftest import ROOT
-from whisker.bom import (MEMBRANE_PART, PRINTED_PARTS, BomError, CoilWire, PrintSettings, awg, bom_csv,
-                         bom_rows, cad_measures, cad_volumes, coil_wire, led_strip, make_bom, pla_grams,
-                         print_settings, read_print_report)
+from whisker.bom import BomError, CoilWire, awg, bom_csv, bom_rows, coil_wire, led_strip, make_bom
+from whisker.part_measures import (MEMBRANE_PART, PRINTED_PARTS, PrintSettings, cad_measures, cad_volumes, pla_grams,
+                                   print_settings, read_print_report)
 from whisker.design import default_design
 from whisker.drive.pins import PinMapError
 

@@ -287,7 +287,7 @@ def test_print_size_table_matches_the_manifest(ctx):
         size = ctx.size(part)
         assert all(_agrees(g, w, slack=0.1) for g, w in zip(dims, size)), f"{part}: docs {dims}, manifest {size}"
         seen.add(part)
-    from whisker.bom import PRINTED_PARTS
+    from whisker.part_measures import PRINTED_PARTS
     assert set(PRINTED_PARTS) <= seen
 
 

@@ -42,7 +42,8 @@ def test_sim_camera_tracker_and_geometry_give_the_tips_back(overrides):
 
 @pytest.mark.parametrize("overrides", SCALED, ids=["5@14mm", "16@20mm"])
 def test_pin_map_netlist_and_bom_count_n(overrides):
-    from whisker.bom import bom_rows, coil_wire, print_settings
+    from whisker.bom import bom_rows, coil_wire
+    from whisker.part_measures import print_settings
     from whisker.pcb import netlist
     from whisker.drive.pins import modules_needed, pin_map
 

@@ -208,7 +208,8 @@ def test_guard_uses_the_resistor_current(design):
 # ---- BOM and netlist -----------------------------------------------------------------------------
 
 def test_bom_carries_the_resistor():
-    from whisker.bom import MEMBRANE_PART, PRINTED_PARTS, CoilWire, bom_rows
+    from whisker.bom import CoilWire, bom_rows
+    from whisker.part_measures import MEMBRANE_PART, PRINTED_PARTS
 
     vols = {name: 1000.0 * (i + 1) for i, name in enumerate((*PRINTED_PARTS, MEMBRANE_PART))}
 

@@ -1,6 +1,6 @@
 """Bill of materials generated from the design: every quantity follows hw/sensor.toml.
 
-``bom_rows(design, volumes_mm3, wire)`` is pure: it takes the CAD volumes (``cad_volumes``) and the
+``bom_rows(design, volumes_mm3, wire)`` is pure: it takes the CAD volumes (``whisker.part_measures.cad_volumes``) and the
 coil winding (``coil_wire``) and returns the rows; ``write_bom_csv`` writes them atomically. The
 committed ``hw/bom.csv`` is this module's output for the default design (``make bom``); a test
 regenerates it and fails when it differs.
@@ -40,11 +40,9 @@ from pathlib import Path
 from typing import Optional
 
 from whisker.design import Design
-from whisker.errors import BomError  # noqa: F401  (the BOM's error, raised here and by its helpers)
-from whisker.part_measures import (  # noqa: F401  (the part lists and measures the BOM is made of)
-    CALIBRATION_PARTS, MEMBRANE_PART, PRINTED_PARTS, RESIN_PARTS, PrintSettings, cad_measures, cad_volumes, pla_grams,
-    print_settings, read_print_report,
-)
+from whisker.errors import BomError
+from whisker.part_measures import (CALIBRATION_PARTS, MEMBRANE_PART, PRINTED_PARTS, RESIN_PARTS, PrintSettings,
+                                   cad_measures, pla_grams, print_settings, read_print_report)
 from whisker.part_numbers import find_part, with_part_number
 from whisker.coil.driver import RESISTOR_LOAD, resistor_power_W, resistor_rating_W, series_resistance_ohm
 from whisker.drive.guard import full_scale_voltage
