@@ -25,9 +25,15 @@ What the estimator handles, and what it does not:
 - a compliant object: its contact compliance c = d(indentation)/dF adds c / r^2 to 1 / (K - k). If the
   object's indentation law is given (`estimate(..., contact_indentation_mm=...)`), r is solved with
   it; if not, a soft object reads farther out than it is (docs/locate.md gives the bias);
-- slip: a contact that slides along the object under the sweep moves the base across the sweep axis
-  (in stick that motion is zero) and makes the base far more compliant than the rod allows; both are
-  tested, and a slipping or too-soft contact gets no distance;
+- slip (whisker.sensing.contact_slip): a stuck contact is elastic, so path independent and moving the
+  base only along the torque axis. A contact that slid in the first loading and stuck after
+  (shakedown: the rest tilt before the sweep differs from the later rest tilt) is located on the
+  later cycles; one that slides every cycle (the base moves across the sweep) is located at its
+  friction cone's edges when the rod's Coulomb coefficient ``mu`` is given (checked against the two
+  levels' force directions), else gets "slip"; a base more compliant than a rod held at its tip gets
+  "slip or soft contact";
+- an object of unknown compliance (``rigid_object=False``): its compliance only adds to the rod's, so
+  the rigid-object distance is an upper bound: status "upper bound", no distance;
 - no contact / no information: a whisker that follows the sweep like a free one is "no contact"; a
   sweep whose response is below the tracker's noise gets "not observable", never a number.
 """
@@ -46,7 +52,10 @@ DEFAULT_PERIOD_S = 0.2           # s, one on/off cycle of the square wave
 MIN_FRAMES = 8
 #: a distance whose 1-sigma uncertainty is above this fraction of the rod's protrusion is not reported
 NOT_OBSERVABLE_FRACTION = 0.25
-#: slip: across-axis response above this many standard errors (and above this fraction of the in-axis one)
+#: slip: motion across the torque axis (or a ratchet of the rest tilt, contact_slip.ratchet) above this many
+#: standard errors of the frame noise; and across-axis above this fraction of the in-axis response: the
+#: stuck contact's own cross-talk allowed for a coil torque axis or camera axes misaligned by up to
+#: atan(0.2) = 11 deg (a stuck isotropic rod moves the base only along the torque)
 SLIP_SIGMAS, SLIP_FRACTION = 4.0, 0.2
 
 
@@ -166,7 +175,7 @@ class Sweep:
 
 @dataclass
 class LocateResult:
-    status: str                       # "ok", "no contact", "slip or soft contact", "not observable", "ambiguous"
+    status: str     # "ok", "no contact", "slip", "slip or soft contact", "not observable", "ambiguous", "upper bound"
     message: str
     distance_mm: float | None = None
     distance_sigma_mm: float | None = None
