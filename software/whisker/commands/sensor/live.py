@@ -103,11 +103,9 @@ def cli(design, source, fps, contacts, method, track_method, rest_frames, record
         if source != "sim":
             fail("live: --locate drives the coils, which `whisker live` can only do in the simulator (--source sim); "
                  "on hardware record a sweep (`whisker record`) and run `whisker locate SESSION`")
-        from whisker.sim.experiments.locate_sweep import rod_friction
-
-        try:   # the simulator's rod friction: a contact that slides every cycle is located at its cone's edge
+        try:
             locator = LiveLocator(design, whisker=locate_whisker, amplitude=sweep_level, duration_s=sweep_duration,
-                                  fps=fps, mu=rod_friction())
+                                  fps=fps)
         except LocateError as err:
             fail(f"live: --locate refused: {err}")
     elif locate_whisker is not None or sweep_level is not None or sweep_duration is not None:

@@ -34,8 +34,9 @@ from whisker.cliutil import design_options, fail
               help="The object may be soft and its compliance is unknown: report an upper bound on the distance "
                    "(mm; a soft object only looks farther) instead of a distance.")
 @click.option("--mu", type=click.FloatRange(0, 10), default=None,
-              help="Coulomb coefficient of the rod on the object, locating a contact that slides every cycle "
-                   "at its friction cone's edge [default: the simulator's contact.rod_friction].")
+              help="Opt-in: Coulomb coefficient of the rod on the object (the simulator's contact.rod_friction is "
+                   "0.3), to locate a contact that slides every cycle at its friction cone's edge; needs the absolute "
+                   "tilt to ~1e-5 rad (docs/locate.md). Without it such a contact gets \"slip\".")
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Folder for locate.md (table), locate.csv and locate.png (tilt vs commanded torque).")
 def cli(design, session, whisker, simulate_mm, material, approach_deg, amplitude, duration_s, fps, start_C,
@@ -82,10 +83,6 @@ def cli(design, session, whisker, simulate_mm, material, approach_deg, amplitude
         else:
             sweep, heat = _from_session(design, session, whisker), None
             source = f"{session}, whisker {whisker}"
-        if mu is None:
-            from whisker.sim.experiments.locate_sweep import rod_friction
-
-            mu = rod_friction()
         res = L.estimate(design, sweep, rigid_object=not unknown_compliance, mu=mu)
     except L.LocateError as err:
         fail(f"locate refused: {err}")
