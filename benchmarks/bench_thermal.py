@@ -123,21 +123,19 @@ def integrator_rows(d):
     net = ThermalNetwork(d)
     I = np.full(net.n, 0.45)
     L, src = net._system()
-    wi = net.winding_idx
 
     def rhs(t, x):
-        b = src.copy()
-        b[wi] += I * I * net.r20_ohm * (1 + net.alpha * (x[wi] - 20.0))
-        return (b - L @ x) / net.C
+        heat, d = net._joule(x, I)
+        return (src + heat + d * x - L @ x) / net.C
 
     rows = []
     for t_end in (2.0, 10.0):
-        ref = solve_ivp(rhs, (0, t_end), net.initial_state(), method="Radau", rtol=1e-10, atol=1e-10).y[wi[0], -1]
+        ref = net.winding_C(solve_ivp(rhs, (0, t_end), net.initial_state(), method="Radau", rtol=1e-10, atol=1e-10).y[:, -1])[0]
         for sub in (0.005, 0.02, 0.05, 0.2):
             m = ThermalNetwork(d, max_substep_s=sub)
             x = m.step_state(m.initial_state(), I, t_end)
-            rows.append({"t_s": t_end, "substep_s": sub, "winding_C": float(x[wi[0]]), "reference_C": float(ref),
-                         "err_K": float(x[wi[0]] - ref)})
+            w = float(m.winding_C(x)[0])
+            rows.append({"t_s": t_end, "substep_s": sub, "winding_C": w, "reference_C": float(ref), "err_K": w - float(ref)})
     return rows
 
 
