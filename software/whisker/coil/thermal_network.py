@@ -91,6 +91,12 @@ class ThermalNetwork:
     def columns(self, node: str) -> np.ndarray:
         """Indices into the state of `node` (a name of thermal_parts.PER_WHISKER or SHARED): (rows, n),
         one row per node (the winding and the tab: one per slice, from their common face)."""
+        cache = self.__dict__.setdefault("_colcache", {})
+        if node not in cache:
+            cache[node] = self._columns(node)
+        return cache[node]
+
+    def _columns(self, node: str) -> np.ndarray:
         K, Mw, N, n = self.per_whisker, self.winding_nodes, self.tab_nodes, self.n
         base = np.arange(n) * K
         if node == "winding":
@@ -163,30 +169,55 @@ class ThermalNetwork:
         b = src + heat
         steps = max(1, math.ceil(dt / self.max_substep_s))
         h = dt / steps
-        solve = self._block_solver(self._implicit_matrix(h) - np.diag(d))
+        solve = self._block_solver(h, d)
         ch = self.C / h
         for _ in range(steps):
             x = solve(ch * x + b)
         return np.minimum(x, 5000.0)
 
-    def _block_solver(self, A: np.ndarray):
-        """x -> A^-1 x for a matrix of the network's pattern: the whiskers' blocks (K x K) meet only
-        through the shared nodes (cavity air, mount), so the blocks are solved together (batched
-        LAPACK) and the shared nodes through their Schur complement. Cheaper than a dense solve of
-        the whole network, and free of the threaded BLAS a dense solve of ~100 nodes calls."""
+    def _blocks(self, h):
+        """The pattern of C/h + L (h None: L alone): the whiskers' diagonal blocks (n, K, K), block ->
+        shared (n, K, s), shared -> block (n, s, K) and shared (s, s); whiskers meet only through the
+        shared nodes (cavity air, mount). Cached per h."""
+        cache = self.__dict__.setdefault("_bcache", {})
+        out = cache.get(h)
+        if out is None:
+            A = self._system()[0] if h is None else self._implicit_matrix(h)
+            n, K = self.n, self.per_whisker
+            nK = n * K
+            blocks = A[:nK, :nK].reshape(n, K, n, K)[np.arange(n), :, np.arange(n), :].copy()
+            out = (blocks, A[:nK, nK:].reshape(n, K, -1).copy(), A[nK:, :nK].reshape(-1, n, K).transpose(1, 0, 2).copy(),
+                   A[nK:, nK:].copy())
+            if len(cache) > 64:
+                cache.clear()
+            cache[h] = out
+        return out
+
+    def _block_solver(self, h, d):
+        """x -> (C/h + L - diag(d))^-1 x (h None: (L - diag(d))^-1 x): the whiskers' blocks solved
+        together (batched LAPACK), the shared nodes through their Schur complement. Cheaper than a
+        dense solve of the whole network, and free of the threaded BLAS a dense solve of ~100 nodes
+        calls. The last solver is kept (the guard steps with the same h and currents)."""
+        key = (h, d.tobytes())
+        last = self.__dict__.get("_last_solver")
+        if last is not None and last[0] == key:
+            return last[1]
+        blocks, E, F, S = self._blocks(h)
         n, K = self.n, self.per_whisker
         nK = n * K
-        blocks = A[:nK, :nK].reshape(n, K, n, K)[np.arange(n), :, np.arange(n), :]   # (n, K, K)
-        E = A[:nK, nK:].reshape(n, K, -1)                                            # block -> shared
-        F = A[nK:, :nK].reshape(-1, n, K).transpose(1, 0, 2)                         # shared -> block
+        dd = d[:nK].reshape(n, K)
+        if np.any(dd):
+            blocks = blocks.copy()
+            blocks[:, np.arange(K), np.arange(K)] -= dd
         inv = np.linalg.inv(blocks)
         Z = inv @ E
-        schur = A[nK:, nK:] - np.einsum("isk,ikt->st", F, Z)
+        schur = S - np.einsum("isk,ikt->st", F, Z)
 
         def solve(r):
             y = np.einsum("ijk,ik->ij", inv, r[:nK].reshape(n, K))
             sh = np.linalg.solve(schur, r[nK:] - np.einsum("isk,ik->s", F, y))
             return np.concatenate([(y - Z @ sh).ravel(), sh])
+        self._last_solver = (key, solve)
         return solve
 
     def _implicit_matrix(self, h: float) -> np.ndarray:
@@ -205,7 +236,7 @@ class ThermalNetwork:
         """Steady node temperatures at constant RMS currents (or powers), C (inf where runaway)."""
         L, src = self._system()
         heat, d = self._joule(self.initial_state(), currents_A, power_W)
-        return self._block_solver(L - np.diag(d))(src + heat)
+        return self._block_solver(None, d)(src + heat)
 
     # ---- limits ------------------------------------------------------------------------------------
     def node_temperatures(self, state) -> dict[str, np.ndarray]:

@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -257,7 +258,7 @@ class Ladder:
     surface: np.ndarray        # free faces of each slice, m^2
     rod_share: np.ndarray      # share of the tab -> rod conductance each slice takes (the tab's; sums to 1)
 
-    @property
+    @cached_property
     def share(self) -> np.ndarray:
         """Each slice's share of the part's length (of the winding's wire, so of its heat and resistance)."""
         w = np.diff(self.cuts_mm)
