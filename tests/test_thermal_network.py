@@ -112,6 +112,38 @@ def test_slab_resistance_scales(L, k, A):
     assert tp.winding_face_resistance_K_per_W(2 * L, k, A) == pytest.approx(2 * r)
 
 
+@given(r=st.floats(0.05, 5.0), c=st.floats(-5.0, 5.0), a=st.floats(-10.0, 10.0), w=st.floats(0.0, 10.0),
+       n=st.integers(1, 12))
+def test_circle_strips_add_up_to_the_disc(r, c, a, w, n):
+    part = tp.circle_strip_area_mm2(r, c, a, a + w)
+    assert -1e-12 <= part <= math.pi * r * r * (1 + 1e-12)
+    assert part <= 2 * r * w + 1e-9                            # no more than the strip's bounding box
+    cuts = np.linspace(c - r - 1.0, c + r + 1.0, n + 1)
+    total = sum(tp.circle_strip_area_mm2(r, c, x0, x1) for x0, x1 in zip(cuts[:-1], cuts[1:]))
+    assert total == pytest.approx(math.pi * r * r, rel=1e-9)
+
+
+@given(n=st.integers(1, 40))
+def test_ladders_hold_the_parts_whole(n):
+    """However many slices: the slices' capacities and free faces add up to the parts' (the tab's faces
+    to its single-node convection), slices get thinner, the spreading section stays within the tab."""
+    g, M = NET.geo, NET.mat
+    cap = tp.capacities_J_per_K(g, M)
+    w, t = tp.winding_ladder(g, M, n), tp.tab_ladder(g, M, n)
+    assert w.capacity.sum() == pytest.approx(cap["winding"], rel=1e-9)
+    assert t.capacity.sum() == pytest.approx(cap["bobbin"], rel=1e-9)
+    h, hr = NET.film_coefficients_W_m2K()
+    gc = tp.conductances(g, M, h, hr, NET.n, True)
+    assert h * t.surface.sum() == pytest.approx(gc["bobbin-cavity"], rel=1e-9)
+    assert h * w.surface.sum() == pytest.approx(gc["winding-cavity"], rel=1e-9)
+    assert t.rod_share.sum() == pytest.approx(1.0) and np.all(t.capacity > 0) and np.all(t.surface > 0)
+    assert np.all(np.diff(np.diff(t.cuts_mm)) > -1e-12) and w.share.sum() == pytest.approx(1.0)
+    a = [tp.spread_area_mm2(g, s) for s in np.linspace(0.0, g.tab_x, 9)]
+    assert np.all(np.diff(a) >= -1e-9) and a[-1] <= g.tab_y * g.tab_z * (1 + 1e-3)
+    with pytest.raises(ValueError, match="number of slices"):
+        tp.tab_ladder(g, M, 0)
+
+
 @settings(max_examples=15, deadline=None)
 @given(h=st.floats(3.0, 40.0), ambient=st.floats(0.0, 40.0), p=st.floats(0.05, 3.0))
 def test_network_conserves_energy_and_is_passive(h, ambient, p):
