@@ -189,8 +189,8 @@ def test_network_within_10_percent_of_finite_elements():
     """Rise of the winding (whose materials set the guard's limit) and of the bobbin's tab (its volume
     mean; the tab's ladder of slices, whisker.coil.thermal_parts) at 2 s and at steady state, and of the
     rod and the membrane at steady state, within 10 % of the scikit-fem conduction model of the same
-    parts with the same boundary conditions. The 0.3 mm grid: within 3 % of the finest (0.15 mm) on
-    every row of benchmarks/results/thermal.md, where the 0.2 mm grid scatters most (the staircase of
+    parts with the same boundary conditions. The 0.3 mm grid: within 3 % of the finest (0.15 mm) on each
+    of these in benchmarks/results/thermal.md, where the 0.2 mm grid scatters most (the staircase of
     the thin glue layer), and the cheapest."""
     pytest.importorskip("skfem", reason="the [fem] extra (scikit-fem) is not installed")
     from whisker.coil.thermal_fe import ConductionFE, network_means
