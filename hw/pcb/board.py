@@ -50,7 +50,7 @@ def prepare(design: Design):
 
 
 #: the code that turns a placement spec into the routed board and its fabrication files
-BOARD_CODE = ("kicad.py", "kicad_job.py", "router.py", "fab.py")
+BOARD_CODE = ("kicad.py", "kicad_job.py", "router.py", "maze.py", "fab.py")
 
 
 def input_digest(spec: dict) -> str:
