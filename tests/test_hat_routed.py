@@ -2,10 +2,13 @@
 which CI installs through scripts/system-deps). The pin map is checked on the board's copper: pcbnew
 reports every pad, track, via and filled plane as geometry and whisker.pcb.copper joins what touches,
 without looking at net names. The slow test routes the default board again from the design and
-compares its Gerber and drill files byte for byte with the committed ones."""
+compares its Gerber and drill files byte for byte with the committed ones. The 6- and 12-coil boards
+(`make hat-sizes`) are kept as summaries: the test checks they are current and passed the DRC gate;
+benchmarks/bench_hat.py routes all three again (pin map on copper, Gerbers' sha256, route time)."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 from pathlib import Path
@@ -22,14 +25,29 @@ ROOT = Path(__file__).resolve().parents[1]
 GENERATED = ROOT / "hw" / "pcb" / "generated" / "hat"
 
 
-def test_committed_board_is_current():
-    """The committed routed board was made from today's placement and today's routing/export code."""
-    _c, _r, spec = hat_board.prepare(default_design())
-    summary = json.loads((GENERATED / "hat_summary.json").read_text())
-    assert summary.get("input_digest") == hat_board.input_digest(spec), "run `make pcb` and commit"
+SIZES = hat_board.SIZES   # folder -> design overrides (make pcb, make hat-sizes)
+
+
+@pytest.mark.parametrize("folder", sorted(SIZES))
+def test_committed_board_is_current(folder):
+    """The committed routed board (for 6 and 12 coils: its summary) was made from today's placement and
+    today's routing/export code, passed the DRC gate, and lists the sha256 of its Gerber/drill files."""
+    d = default_design(*SIZES[folder])
+    _c, _r, spec = hat_board.prepare(d)
+    summary = json.loads((GENERATED.parent / folder / "hat_summary.json").read_text())
+    assert summary["whiskers"] == d.whiskers.count
+    assert summary.get("input_digest") == hat_board.input_digest(spec), \
+        f"run `make {'pcb' if folder == 'hat' else 'hat-sizes'}` and commit"
     assert summary["drc"]["errors"] == 0 and summary["drc"]["unconnected"] == 0
-    gerbers = GENERATED / "gerbers"
-    assert sorted(p.name for p in gerbers.iterdir()) == summary["gerbers"]
+    drc = json.loads((GENERATED.parent / folder / "drc.json").read_text())
+    assert drc == summary["drc"]
+    assert sorted(summary["gerbers_sha256"]) == summary["gerbers"]
+    assert any(n.endswith(".drl") for n in summary["gerbers"])
+    if folder == "hat":   # the default board keeps its Gerbers: they are the files the summary hashes
+        gerbers = GENERATED / "gerbers"
+        assert sorted(p.name for p in gerbers.iterdir()) == summary["gerbers"]
+        for n in summary["gerbers"]:
+            assert hashlib.sha256((gerbers / n).read_bytes()).hexdigest() == summary["gerbers_sha256"][n], n
 
 
 @needs_kicad
