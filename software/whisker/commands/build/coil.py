@@ -300,10 +300,11 @@ def driver(design, volts, amps, series):
 def tolerance(design, sensors, drive_mode, amps, sobol_base, tolerances, seed, out):
     """Build scatter: tilt at the grasp level, P(pull-in), build yield (%), Sobol' indices. docs/coil.md."""
     from whisker.coil import tolerance as tol
+    from whisker.coil.tolerance_table import load_tolerances
     from whisker.files import atomic_write_json
 
     drive = tol.Drive(drive_mode, amps)
-    tol.load_tolerances(tolerances)          # refuse a bad table before any work
+    load_tolerances(tolerances)          # refuse a bad table before any work
     r = tol.study(design, sensors, drive, seed=seed, tolerances=tolerances)
     rep = r.to_dict()
     p = r.tilt_percentiles_deg

@@ -93,7 +93,8 @@ def _from_session(design, folder, whisker):
     """Sweep of one whisker from a `whisker record` session: tracked tips -> tilt, applied levels per frame."""
     import numpy as np
 
-    from whisker.data.recording import RecordingError, load_session
+    from whisker.data.recording import RecordingError
+    from whisker.data.session import load_session
     from whisker.sensing import locate as L
 
     try:
