@@ -90,6 +90,31 @@ def test_router_keeps_clearance_on_a_toy_board():
     assert max(max(t["start"][1], t["end"][1]) for t in tracks) > 4.0   # it went round the wall
 
 
+def test_router_negotiates_two_crossing_nets_apart():
+    """Two nets whose straight paths cross, pads on the top layer only: the first pass lets them share
+    room, the negotiation then moves them apart, and the result keeps the clearance between every track
+    and via of different nets (checked with shapely on the segments, not on the router's grid)."""
+    import shapely
+
+    def pad(pid, net, x, y):
+        return {"kind": "pad", "id": pid, "layer": "F.Cu", "net": net, "at": [x, y],
+                "polys": [[[x - 0.4, y - 0.4], [x + 0.4, y - 0.4], [x + 0.4, y + 0.4], [x - 0.4, y + 0.4]]]}
+
+    items = [pad("A:1", "S", 1.0, 3.0), pad("B:1", "S", 9.0, 3.0), pad("C:1", "T", 5.0, 0.8), pad("D:1", "T", 5.0, 5.2)]
+    rules = {"clearance": 0.2, "track_width": 0.2, "via_diameter": 0.45, "via_drill": 0.2, "edge_clearance": 0.2}
+    spec = {"board": {"width": 10.0, "height": 6.0}, "rules": rules}
+    log: list[str] = []
+    tracks, vias = router.route(items, spec, ["S", "T"], log=log.append)
+    assert "sharing room" in log[0] and log[-1].endswith("2/2 nets clear"), log
+    assert {t["net"] for t in tracks} == {"S", "T"} and vias   # one of them changes layer to cross
+    copper = [(t["net"], {t["layer"]}, shapely.LineString([t["start"], t["end"]]), t["width"] / 2) for t in tracks]
+    copper += [(v["net"], {"F.Cu", "B.Cu"}, shapely.Point(v["at"]), v["diameter"] / 2) for v in vias]
+    for na, la, ga, ra in copper:
+        for nb, lb, gb, rb in copper:
+            if na != nb and la & lb:
+                assert ga.distance(gb) >= rules["clearance"] + ra + rb - 1e-9, (na, nb)
+
+
 @needs_kicad
 @pytest.mark.slow
 def test_default_board_routes_again_to_the_same_gerbers(tmp_path):
