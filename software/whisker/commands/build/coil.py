@@ -225,6 +225,7 @@ def thermal(design, volts, duty, seconds, step):
     import numpy as np
 
     from whisker.coil import thermal_network as tn
+    from whisker.coil import thermal_parts as tp
 
     v = design.actuation.voltage if volts is None else volts
     if not (math.isfinite(v) and v >= 0):
@@ -243,7 +244,7 @@ def thermal(design, volts, duty, seconds, step):
     click.echo(f"{v:g} V, duty {duty:g} on every coil: steady winding {float(net.winding_C(ss)[0]):.0f} C; "
                f"first limit {first if t_first != 'never' else net.limit_label} after {t_first}; "
                f"safe duty {tn.safe_duty(net, v) * 100:.1f} %")
-    names = list(tn.PER_WHISKER) + list(tn.SHARED)
+    names = list(tp.PER_WHISKER) + list(tp.SHARED)
     click.echo("t_s    " + "  ".join(f"{n[:8]:>8s}" for n in names) + "   (C)")
     ts, xs = tn.run_at_volts(net, v, max(t_end, step), duty=duty, dt_s=min(step, 0.05))
     for k in range(int(round(t_end / step)) + 1):
