@@ -287,3 +287,48 @@ def test_calibrate_EI_recovers_the_rod(r, scale):
     for _ in range(20):      # held at r; the coil's torque depends on the tilt (its fixed point)
         tilt[:, 0] = -0.03 + L.coil_torque_Nmm(DESIGN, lev, tilt[:, 0]) / (k + 3 * scale * EI / r)
     assert L.calibrate_EI(DESIGN, L.Sweep(t, lev, tilt), r) == pytest.approx(scale * EI, rel=1e-9)
+
+
+def _ar1(n, rho, rng):
+    """AR(1) noise of unit marginal variance, started in its stationary state (200 frames burnt in)."""
+    e = rng.standard_normal(n + 200)
+    x = np.zeros_like(e)
+    for i in range(1, len(e)):
+        x[i] = rho * x[i - 1] + e[i]
+    return x[200:] * math.sqrt(1.0 - rho ** 2)
+
+
+def test_sweep_cycles_hold_both_levels():
+    """2 s of 0.2 s cycles starting with half a period at rest and ending on a loaded half: 10 rises;
+    the rest before the first joins the first cycle, the last lone loaded half joins the one before."""
+    t, lev = L.sweep_levels(1.0, 2.0, 120.0)
+    ids = L.sweep_cycles(lev)
+    assert ids.max() + 1 == 9 and (np.diff(ids) >= 0).all() and ids[0] == 0
+    for g in range(9):
+        assert (lev[ids == g] > 0).any() and (lev[ids == g] == 0).any()
+    assert L.sweep_cycles(np.r_[lev, 0.0, 0.0]).max() + 1 == 10   # a complete last cycle stands alone
+
+
+def test_autocorrelated_noise_is_covered_by_the_reported_sigma():
+    """AR(1) tilt noise, rho 0.95 at 240 fps (correlation time 0.08 s, a third of the sweep's 0.2 s
+    period): its power at the sweep's 5 Hz is ~5 x a white noise's of the same variance, so the ordinary
+    least-squares error is ~2.3 x too small. The cycles' (cluster-robust) error must cover the truth
+    within 3 sigma on every answered sweep, and the white-noise error must fail it on some: the
+    test would catch a return to the white-noise error."""
+    t, lev = L.sweep_levels(1.0, 2.0, 240.0)
+    r = 30.0
+    tilt = S.sweep_tilt(DESIGN, S.Case(r), lev)
+    answered = white_misses = 0
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        noise = 1e-4 * np.stack([_ar1(len(t), 0.95, rng), _ar1(len(t), 0.95, rng)], axis=1)
+        sweep = L.Sweep(t, lev, tilt + noise)
+        res = L.estimate(DESIGN, sweep)
+        assert res.status in ("ok", "not observable", "slip"), res.message
+        if res.status == "ok":
+            answered += 1
+            assert abs(res.distance_mm - r) <= 3 * res.distance_sigma_mm, (seed, res.message)
+        old = L.estimate(DESIGN, sweep, standard_error="white")
+        if old.status == "ok" and abs(old.distance_mm - r) > 3 * old.distance_sigma_mm:
+            white_misses += 1
+    assert answered >= 10 and white_misses >= 2, (answered, white_misses)

@@ -79,7 +79,10 @@ def pre_sweep(lev: np.ndarray) -> np.ndarray:
 def ratchet(tilt: np.ndarray, lev: np.ndarray, noise_rad: np.ndarray) -> dict:
     """How far the rest tilt moved between before the sweep and the rest frames after its first loading
     (rad, 2 axes), with its standard error from the frame noise. A stuck (elastic) contact returns to
-    where it started; a contact that slid during the first loading does not."""
+    where it started; a contact that slid during the first loading does not. ``noise_rad``: the per-frame
+    noise as a mean over a run of frames sees it: locate passes the residual std times the cycles'
+    inflation of the slope's standard error (locate._fit), so serially correlated noise widens it
+    as it widens the slope's."""
     pre = pre_sweep(lev)
     off, _ = levels_split(lev)
     later = off & ~pre
@@ -117,7 +120,8 @@ def cone_edge_distance(theta_off, theta_on, tau_off: float, tau_on: float, k: fl
 def cone_edge_estimate(tau: np.ndarray, tilt: np.ndarray, lev: np.ndarray, noise_rad, k: float, EI: float,
                        mu: float) -> dict:
     """`cone_edge_distance` on the steady cycles (after the first loading) of a sweep, with its 1-sigma
-    (mm) by first-order propagation of the level means' standard errors (frame noise / sqrt(frames)),
+    (mm) by first-order propagation of the level means' standard errors (frame noise / sqrt(frames);
+    ``noise_rad`` as in `ratchet`: inflated for serial correlation by locate),
     and the friction check: ``ok`` False with a reason when the two levels are not on the cone's edges
     (mu_hat outside mu x (1 -+ MU_SPREAD)) or the distance is not positive."""
     steady = ~pre_sweep(lev)
