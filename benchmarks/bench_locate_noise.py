@@ -128,7 +128,7 @@ def coverage_rows(design, rendered, real, configs):
         for name, bank, block, fn in sources:
             fn = fn if fn is not None else (lambda n, rng, b=bank, k=block: S.draw_noise(b, n, rng, k))
             res, tru, _, _ = run(design, None, None, amp, dur, fps, errors=("white", "cycles"), noise_fn=fn)
-            for e, label in (("white", "white (OLS, before)"), ("cycles", "cycles (cluster-robust)")):
+            for e, label in (("white", "white (OLS)"), ("cycles", "cycles (default)")):
                 st = stats(res[e], tru)
                 rows.append({"sweep": f"{amp:g} / {dur:g} s / {fps:g} fps", "noise": name, "standard_error": label,
                              **{k: st[k] for k in ("answered_pct", "median_mm", "p90_mm")},
@@ -226,7 +226,12 @@ def main() -> int:
     fmt = {"marker_px_rms": ".4f", "median_mm": ".2f", "p90_mm": ".2f", "answered_pct": ".0f",
            "force_median_pct": ".1f", "sigma_pred_mm": ".2f", "coil_rise_K": ".1f", "energy_J": ".2f",
            "sigma_median_mm": ".2f", "coverage_2sigma_pct": ".0f"}
-    best_line = ("no sweep within the thermal limit answers 90 % of the contacts" if best is None else
+    ran = [r for r in grid if not r["over_limit"] and r["answered_pct"] > 0]
+    most = max(ran, key=lambda r: (r["answered_pct"], -r["median_mm"])) if ran else None
+    best_line = (("no sweep within the thermal limit answers 90 % of the contacts" + (
+                  "" if most is None else f"; the most, {most['answered_pct']:.0f} %: level {most['amplitude']:g}, "
+                  f"{most['duration_s']:g} s at {most['fps']:g} fps ({most['coil_rise_K']:.1f} K): median "
+                  f"**{most['median_mm']:.2f} mm**, p90 **{most['p90_mm']:.2f} mm**")) if best is None else
                  f"best sweep within the thermal limit that answers >= 90 %: level {best['amplitude']:g}, "
                  f"{best['duration_s']:g} s at {best['fps']:g} fps ({best['coil_rise_K']:.1f} K): median "
                  f"**{best['median_mm']:.2f} mm**, p90 **{best['p90_mm']:.2f} mm**")
@@ -275,16 +280,22 @@ coil's heat caps that (section 2).
 ## 4. Is the reported sigma honest? (coverage, {len(DISTANCES)} distances x {SEEDS} seeds per row)
 
 `coverage_2sigma_pct`: of the answered ("ok") sweeps, the share whose error is within 2 reported sigmas
-(about 95 % when sigma is right). Both standard errors are computed on the same noisy frames:
-`white (OLS, before)` is the ordinary least-squares error s / sqrt(sum (tau - mean)^2), valid for white
-noise only; `cycles (cluster-robust)` is the estimator's default since issue 31: the sandwich over the
+(about 95 % when sigma is right and the error unbiased). Both standard errors are computed on the same
+noisy frames: `white (OLS)` is the ordinary least-squares error s / sqrt(sum (tau - mean)^2), valid for
+white noise only (the estimator's error before issue 31); `cycles (default)` is the sandwich over the
 sweep's on/off cycles (one score per cycle, CR1 factor; Liang & Zeger 1986, Cameron & Miller 2015),
-the batch-means error of one slope per cycle, valid while the noise decorrelates within about a cycle.
-Both evaluate the tip-clamped distance's sigma at the tip's stiffness; before issue 31 it was taken at
-the measured (larger) compliance, which shrank it by up to (measured / tip)^2 and let the 2 s sweeps
-answer "ok" at the tip with errors of 18-33 mm (the previous locate_noise.md). The AR(1) row is
-synthetic: lag-1 correlation {AR_RHO:g}, which at 240 fps puts ~5 x the white noise's power at the
-sweep's 5 Hz. Answered and errors count "ok" sweeps only.
+the batch-means error of one slope per cycle, valid while the noise decorrelates within about a cycle,
+with the white-noise error as its floor (locate._fit). The AR(1) rows are synthetic: lag-1
+correlation {AR_RHO:g}, which at 240 fps puts ~5 x the white noise's power at the sweep's 5 Hz.
+Answered and errors count "ok" sweeps only.
+
+Two other causes of over-confident answers were fixed with it, so both rows here have them fixed: a
+distance clamped to the rod's tip took its sigma at the measured (larger) compliance, which shrank it
+by up to (measured / tip)^2 and let 2 s sweeps answer "ok" at the tip with errors of 18-33 mm; and the
+commanded torque was evaluated at each frame's noisy tilt (the coil gap makes it tilt dependent), a
+regressor correlated with the noise that biased the slope by ~12 mm of r at level 0.25 with the real
+jitter, however long the sweep (now the tilt averaged over each run of one level,
+locate.sweep_torque_Nmm).
 
 {markdown_table(cov_rows, ["sweep", "noise", "standard_error", "answered_pct", "median_mm", "p90_mm", "sigma_median_mm", "coverage_2sigma_pct"], fmt)}
 """

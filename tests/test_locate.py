@@ -332,3 +332,27 @@ def test_autocorrelated_noise_is_covered_by_the_reported_sigma():
         if old.status == "ok" and abs(old.distance_mm - r) > 3 * old.distance_sigma_mm:
             white_misses += 1
     assert answered >= 10 and white_misses >= 2, (answered, white_misses)
+
+
+def test_torque_at_the_run_mean_tilt_removes_the_errors_in_variables_bias():
+    """The coil torque depends on the tilt (coil gap, g = d tau / d theta). Evaluated at each frame's
+    noisy tilt it carries the noise into the regressor and biases the slope by g var(e) f / var(tau)
+    (f: share of frames driven); at the run-mean tilt the bias is gone. Noise only, no contact: the
+    true slope is 0."""
+    t, lev = L.sweep_levels(0.25, 60.0, 240.0)
+    theta0, sd = math.radians(2.0), 4e-3
+    g = float(np.diff(L.coil_torque_Nmm(DESIGN, [0.25, 0.25], [theta0 - 1e-4, theta0 + 1e-4]))[0]) / 2e-4
+    on = lev > 0
+    b_frame, b_run = [], []
+    for seed in range(16):
+        th = theta0 + sd * np.random.default_rng(seed).standard_normal(len(t))
+        for tau, out in ((L.coil_torque_Nmm(DESIGN, lev, th), b_frame), (L.sweep_torque_Nmm(DESIGN, lev, th), b_run)):
+            out.append(np.polyfit(tau, th, 1)[0])
+    tau0 = L.coil_torque_Nmm(DESIGN, lev, np.full(len(t), theta0))
+    predicted = g * sd ** 2 * on.mean() / tau0.var()
+    se_mean = sd / (tau0.std() * math.sqrt(len(t))) / math.sqrt(16)
+    assert predicted > 5 * se_mean                       # the case can tell the two apart
+    assert np.mean(b_frame) - np.mean(b_run) == pytest.approx(predicted, rel=0.3)
+    assert abs(np.mean(b_run)) < 3 * se_mean
+    # noiseless: the run mean is each frame's own tilt
+    assert np.allclose(L.sweep_torque_Nmm(DESIGN, lev, np.full(len(t), theta0)), tau0)

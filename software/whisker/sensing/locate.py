@@ -50,8 +50,6 @@ DEFAULT_AMPLITUDE = 1.0          # level (signed PWM duty, whisker.drive.actuati
 DEFAULT_DURATION_S = 2.0         # s
 DEFAULT_PERIOD_S = 0.2           # s, one on/off cycle of the square wave
 MIN_FRAMES = 8
-#: fewest sweep cycles for their own (cluster-robust) standard error; below it the white-noise one is a floor
-MIN_CYCLES = 4
 #: a distance whose 1-sigma uncertainty is above this fraction of the rod's protrusion is not reported
 NOT_OBSERVABLE_FRACTION = 0.25
 #: slip: motion across the torque axis (or a ratchet of the rest tilt, contact_slip.ratchet) above this many
@@ -91,6 +89,21 @@ def coil_torque_Nmm(design, levels, theta_r) -> np.ndarray:
     volts = np.abs(levels) * full_scale_voltage(design)
     current = np.sign(levels) * coil_current_A(design, volts)
     return 1e3 * magnetic_torque(design, whisker_body(design), theta_r, current)
+
+
+def sweep_torque_Nmm(design, levels, theta_r) -> np.ndarray:
+    """`coil_torque_Nmm` of a tracked sweep, at the radial tilt averaged over each run of one level.
+
+    The torque depends on the tilt (the coil gap) by g = d tau / d theta. Taken at each frame's tracked
+    tilt, its noise e enters the regressor too, correlated with the tilt's own (errors in variables):
+    the slope gains g var(e) / var(tau), with the authors' real jitter at level 0.25 about +6.5e-4
+    rad/(N*mm), ~12 mm of r, the same for any sweep length. The mean over a run of n frames leaves
+    1 / n of it; a stuck contact does not move within a run, so noiseless input is unchanged."""
+    levels = np.asarray(levels, dtype=float)
+    theta_r = np.asarray(theta_r, dtype=float)
+    run = np.cumsum(np.r_[True, levels[1:] != levels[:-1]]) - 1
+    mean = np.bincount(run, theta_r) / np.bincount(run)
+    return coil_torque_Nmm(design, levels, mean[run])
 
 
 def sweep_levels(amplitude: float, duration_s: float, fps: float, period_s: float = DEFAULT_PERIOD_S
@@ -222,7 +235,7 @@ def _frames(design, sweep: Sweep):
     if np.ptp(lev) < 1e-3:
         raise LocateError("recording without actuation: the coil level does not change during it; "
                           "locate needs a sweep (a recording made with one, or whisker locate --simulate)")
-    return coil_torque_Nmm(design, lev, tilt[:, 0]), tilt, lev
+    return sweep_torque_Nmm(design, lev, tilt[:, 0]), tilt, lev
 
 
 def sweep_cycles(lev) -> np.ndarray:
@@ -245,11 +258,14 @@ def _fit(tau, tilt, cycles=None):
     sandwich Var(b) = sum_g (sum_{t in g} x_t e_t)^2 / Sxx^2 (x = tau - mean, e the residual) with the
     CR1 small-sample factor G/(G-1) (N-1)/(N-2) (Liang & Zeger, Biometrika 73, 1986; Cameron & Miller,
     "A practitioner's guide to cluster-robust inference", J. Human Resources 50(2), 2015). It is the
-    batch-means error of one slope per on/off cycle, and unlike the ordinary s / sqrt(Sxx) it stays
-    valid when the tracker's noise is serially correlated (camera, light, vibration), as long as the
-    correlation dies out within about a cycle: with AR(1) noise of rho 0.8-0.95 at 120-240 fps the
-    ordinary error covers the slope 58-83 % of the time at 2 sigma, this one 94-99 % (docs/locate.md).
-    Fewer than MIN_CYCLES cycles give too few clusters for it; then the larger of the two is used."""
+    batch-means error of one slope per on/off cycle and, unlike the ordinary s / sqrt(Sxx), stays valid
+    when the tracker's noise is serially correlated (camera, light, vibration) as long as the
+    correlation dies out within about a cycle. Chosen over Newey-West HAC (no lag window to pick: the
+    sweep's own cycles are the blocks); the coverage of both is measured in
+    benchmarks/results/locate_noise.md (section 4). The white-noise error is its floor: from ~10 cycles
+    the cluster estimate scatters by ~25 %, and a draw below the truth would pass the observability
+    test on luck; the noise that limits a camera (vibration, flicker, sway) is positively correlated,
+    which the floor never hides."""
     A = np.stack([np.ones_like(tau), tau], axis=1)
     coef, *_ = np.linalg.lstsq(A, tilt, rcond=None)
     resid = tilt - A @ coef
@@ -265,9 +281,7 @@ def _fit(tau, tilt, cycles=None):
     score = np.zeros((g, 2))
     np.add.at(score, ids, x[:, None] * resid)
     se = np.sqrt(max(g / max(g - 1, 1), 1.0) * (n - 1) / max(1, n - 2) * (score ** 2).sum(axis=0)) / sxx
-    if g < MIN_CYCLES:
-        se = np.maximum(se, se_white)
-    return coef[0], coef[1], se, s, se_white
+    return coef[0], coef[1], np.maximum(se, se_white), s, se_white
 
 
 def _slopes(design, sweep: Sweep):

@@ -137,7 +137,7 @@ def _write(out: Path, design, sweep, res, row) -> None:
     md = ["| quantity | value |", "|---|---|"] + [f"| {k} | {row[k]} |" for k in keys]
     atomic_write_text(out / "locate.md", "# whisker locate\n\n" + "\n".join(md) + "\n")
     ok = np.isfinite(sweep.tilt_rad).all(axis=1)
-    tau = L.coil_torque_Nmm(design, sweep.level[ok], sweep.tilt_rad[ok, 0])
+    tau = L.sweep_torque_Nmm(design, sweep.level[ok], sweep.tilt_rad[ok, 0])
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(tau, 1e3 * sweep.tilt_rad[ok, 0], ".", ms=3, label="tracked radial tilt")
     ax.plot(tau, 1e3 * sweep.tilt_rad[ok, 1], ".", ms=3, alpha=0.5, label="tracked tangential tilt")
