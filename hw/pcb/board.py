@@ -4,7 +4,8 @@ hw/pcb/generated/hat/).
 Without KiCad the circuit, its ERC and the placement spec are still written (``route=False``), and
 :func:`build_hat` raises :class:`whisker.pcb.kicad.KicadMissing` with one line naming what to install
 before touching the output folder. A routed board that fails the DRC gate (any error or unconnected
-item) raises :class:`BoardFailed`; the previous files stay.
+item) or that has a via on an SMD pad (whisker.pcb.copper.vias_on_smd_pads) raises :class:`BoardFailed`;
+the previous files stay.
 
 Files: ``hat.net`` (SKiDL netlist), ``hat_erc.txt``, ``placement.json`` (the spec pcbnew builds from),
 ``hat.kicad_pcb`` (routed), ``drc.json`` (counts), ``gerbers/`` (Gerbers + Excellon, date lines
@@ -90,10 +91,14 @@ def build_hat(design: Design, out: str | Path, route: bool = True, log=print) ->
                 summary["drc"] = drc
                 summary["input_digest"] = input_digest(spec)
                 summary["routed"] = {k: res[k] for k in ("fanout_vias", "routed_tracks", "routed_vias")}
+                summary["vias_on_smd_pads"] = len(res["vias_on_smd_pads"])
                 if drc["errors"] or drc["unconnected"]:
                     raise kicad.BoardFailed(
                         f"DRC: {drc['errors']} error(s) {drc['error_types']}, {drc['unconnected']} unconnected "
                         f"({drc['first_error'] or drc['first_unconnected']}); work files in {work}")
+                if res["vias_on_smd_pads"]:
+                    raise kicad.BoardFailed(f"{len(res['vias_on_smd_pads'])} via(s) on SMD pads (via-in-pad): "
+                                            f"{res['vias_on_smd_pads'][0]}; work files in {work}")
                 shutil.copy(res["board"], tmp / "hat.kicad_pcb")
                 atomic_write_json(tmp / "drc.json", drc)
                 log("pcb: gerbers, drill, BOM, CPL, renders")
