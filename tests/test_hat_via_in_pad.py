@@ -94,3 +94,24 @@ def test_router_puts_the_via_beside_smd_pads():
     on = copper.vias_on_smd_pads([*smd, *({"kind": "via", "at": v["at"], "radius": v["diameter"] / 2,
                                             "net": v["net"]} for v in vias_th)])
     assert len(on) == 1 and "A:1, B:1" in on[0]
+
+
+def test_plane_fanout_keeps_its_vias_off_smd_pads_of_its_own_net():
+    """Two GND pads of two parts face each other 1 mm apart: each pad's first via spot (outward, the
+    clearance past its pad) lands on the other part's pad. The fan-out moves both vias until their discs
+    clear every SMD pad by the clearance (other nets' pads were kept clear before; its own net's now too)."""
+    import shapely
+
+    def pad(ref, num, x, fx):
+        return {"ref": ref, "pad": num, "net": "GND", "at": [x, 5.0], "fp_at": [fx, 5.0],
+                "bbox": [x - 0.25, 4.7, x + 0.25, 5.3], "through": False, "bottom": False}
+
+    pads = [pad("R1", "1", 5.0, 4.5), pad("C1", "2", 6.0, 6.5)]
+    spec = {"board": {"width": 12.0, "height": 10.0}, "power_nets": ["GND"],
+            "rules": {**RULES, "track_width": 0.25}}
+    tracks, vias = kicad.fanout(spec, pads)
+    assert len(vias) == 2 and tracks
+    for v in vias:
+        for p in pads:
+            gap = shapely.Point(v["at"]).distance(shapely.box(*p["bbox"])) - v["diameter"] / 2
+            assert gap >= RULES["clearance"] - 1e-9, (v["at"], p["ref"])
