@@ -93,6 +93,21 @@ def test_schematic_regenerates_byte_for_byte(tmp_path):
         assert (tmp_path / "schematic" / name).read_bytes() == (SHEETS / name).read_bytes(), name
 
 
+@needs_kicad
+def test_a_wrong_symbol_is_refused_in_one_line_and_leaves_the_old_outputs(tmp_path, monkeypatch):
+    """A symbol whose pins do not carry the part's pin numbers stops the build before routing; the
+    previous output folder stays as it was."""
+    out = tmp_path / "hat"
+    out.mkdir()
+    (out / "hat_summary.json").write_text("previous build\n")
+    monkeypatch.setitem(schematic.SYMBOLS, "bridge", ("Device", "R"))   # 2 pins for the DRV8833's 17
+    with pytest.raises(schematic.SchematicFailed, match=r"^U\d+: symbol R has 0 pins numbered \d+$"):
+        hat_board.build_hat(default_design(), out, log=lambda m: None)
+    assert [p.name for p in out.iterdir()] == ["hat_summary.json"]
+    assert (out / "hat_summary.json").read_text() == "previous build\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["hat"]   # no staging folder left behind
+
+
 @settings(max_examples=30, deadline=None)
 @given(st.lists(st.tuples(st.floats(0, 400), st.floats(0, 280)), min_size=1, max_size=20),
        st.floats(0, 10))

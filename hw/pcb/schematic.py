@@ -7,8 +7,9 @@ export svg`` then plots them. Three things make that work for whisker.pcb.hat:
 - the HAT's parts are defined in code (pad numbers only, no symbol graphics), so each one is drawn
   with the KiCad 9 library symbol of the same pinout (:data:`SYMBOLS`; tests/test_hat.py checks the
   DRV8833/INA3221/PCA9685 pin numbers against those symbols) and wired pin number by pin number;
-- schematizer's placed-and-routed mode did not finish the flat ~80-part HAT in 15 minutes (2 cores),
-  so its labels mode draws it: every pin gets a short stub ending in a power symbol, a net label
+- schematizer 0.2.0's placed-and-routed mode did not finish the flat ~80-part HAT in 15 minutes (2
+  cores), and on the block sheets below it raises RoutingFailure after 2 minutes, so its labels mode
+  draws it: every pin gets a short stub ending in a power symbol, a net label
   (net on one sheet) or a global label (net on several), and KiCad joins pins by label name.
   Connectivity is exact by construction, and it is checked (:func:`check_connectivity`): the
   netlist KiCad exports from the drawing must join exactly the pins the SKiDL circuit joins;
@@ -16,10 +17,15 @@ export svg`` then plots them. Three things make that work for whisker.pcb.hat:
   the LED connector, the supply, one sheet per DRV8833 with its two coil connectors, sense resistors
   and capacitors, the current monitors, the PWM expander.
 
+SKiDL's ``net.drive = POWER`` becomes a KiCad ``PWR_FLAG`` symbol, and ``kicad-cli sch erc`` must
+find 0 errors (:func:`kicad_erc`).
+
 Reproducible: schematizer seeds every UUID from names and coordinates; the only volatile text, the
-title-block date in the ``.kicad_sch`` and the plot date in each SVG's ``<title>``, is fixed
-(:func:`stabilise`). Files (into ``schematic/`` of the HAT folder): ``hat.kicad_sch`` (root sheet,
-opens in KiCad's schematic editor), ``hat_<block>.kicad_sch`` per block, and one ``.svg`` per sheet.
+title-block date in the ``.kicad_sch`` and the plot date in each SVG's ``<title>``, is dropped in
+:func:`draw`, and kicad-cli runs with a private configuration folder (:func:`_run`). Files (into
+``schematic/`` of the HAT folder): ``hat.kicad_sch`` (root sheet, opens in KiCad's schematic editor),
+``hat_<block>.kicad_sch`` per block, and ``hat-<block>.svg`` per block sheet, cut to its drawing
+(:func:`crop_svg`).
 """
 
 from __future__ import annotations
@@ -31,7 +37,7 @@ import tempfile
 from pathlib import Path
 
 from .hat import Hat
-from .kicad import BoardFailed, kicad_cli
+from .kicad import BoardFailed, KicadMissing, kicad_cli
 
 #: KiCad 9 symbol libraries (Debian's kicad-symbols; KICAD9_SYMBOL_DIR overrides, as for SKiDL).
 SYMBOL_DIR = Path(os.environ.get("KICAD9_SYMBOL_DIR", "/usr/share/kicad/symbols"))
@@ -85,8 +91,8 @@ def schematic_circuit(hat: Hat):
 
     sk = _skidl()
     if not (SYMBOL_DIR / "Device.kicad_sym").exists():
-        raise SchematicFailed(f"KiCad 9 symbol libraries not found in {SYMBOL_DIR} (Debian: kicad-symbols; "
-                              "scripts/system-deps installs it)")
+        raise KicadMissing(f"KiCad 9's symbol libraries are needed for the schematic and are not in {SYMBOL_DIR}: "
+                           "run scripts/system-deps (Debian: apt-get install -t bookworm-backports kicad-symbols)")
     if str(SYMBOL_DIR) not in sk.lib_search_paths[sk.KICAD9]:
         sk.lib_search_paths[sk.KICAD9].append(str(SYMBOL_DIR))
     ckt = sk.Circuit()
