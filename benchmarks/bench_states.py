@@ -28,7 +28,8 @@ import numpy as np  # noqa: E402
 from common import machine_line, markdown_table, save_figure, write_csv, write_text  # noqa: E402
 from whisker.design import load_design  # noqa: E402
 from whisker.sim.experiments.state_sequences import labelled_sequence  # noqa: E402
-from whisker.sensing.states import STATE_NAMES, make_estimator, precision_recall, run_estimator, state_scores  # noqa: E402
+from whisker.sensing.states import STATE_NAMES, make_estimator  # noqa: E402
+from whisker.sensing.states_offline import precision_recall, run_estimator, state_scores  # noqa: E402
 
 FPS = (15, 30, 90)
 SEEDS = range(5)
@@ -40,7 +41,7 @@ ESTIMATORS = ("authors", "adaptive (live)", "adaptive (recording)")
 
 def run_named(name: str, seq_t, dx, dy, expected=None) -> np.ndarray:
     """Labels of estimator `name` (one of ESTIMATORS) over a recording."""
-    from whisker.sensing.states import label_recording
+    from whisker.sensing.states_offline import label_recording
 
     n = dx.shape[1]
     if name == "adaptive (recording)":

@@ -294,7 +294,7 @@ def test_recording_on_a_full_disk_keeps_every_complete_frame(tmp_path, monkeypat
     frame images. Either way: one line, exit 1, every complete frame readable, recplot works."""
     import cv2
 
-    from whisker.data.recording import load_session
+    from whisker.data.session import load_session
 
     disk = tmp_path / "disk"
     real = _small_tmpfs(disk)

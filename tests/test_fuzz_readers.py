@@ -1,6 +1,6 @@
 """Hypothesis fuzzing of the file readers: every mutant of a valid file is read or refused in one line.
 
-Readers: scene TOML (whisker.sim.load_scene), recording sessions (whisker.data.recording.load_session),
+Readers: scene TOML (whisker.sim.load_scene), recording sessions (whisker.data.session.load_session),
 datasets (whisker.data.dataset_files.load_csv_folder), classifier models (whisker.data.classify.load_model) and lens
 calibration files (whisker.vision.markers.load_calibration). Mutations of a valid file: truncation, byte
 flips, wrong columns (a header renamed or a column dropped), and numbers replaced by NaN, inf or
@@ -172,7 +172,8 @@ def test_scene_toml(data):
 @FUZZ
 @given(data=st.data())
 def test_recording_session(valid, data):
-    from whisker.data.recording import RecordingError, load_session
+    from whisker.data.recording import RecordingError
+    from whisker.data.session import load_session
     from whisker.data.recplot import fig8_data
 
     rel = data.draw(st.sampled_from(["metadata.json", "frames.csv", "tracks.csv", "actuation.csv"]))

@@ -129,7 +129,8 @@ heavy = %r
 present = [m for m in heavy if importlib.util.find_spec(m) is not None]
 failed = {}
 for m in pkgutil.walk_packages(whisker.__path__, "whisker.", onerror=lambda name: None):
-    if m.name.startswith(("whisker.cad", "whisker.pcb", "whisker.hw", "whisker.sequences", "whisker.ros.node")):
+    if m.name.startswith(("whisker.cad", "whisker.pcb", "whisker.hw", "whisker.sequences", "whisker.ros.node",
+                          "whisker.ros.coil_commands")):
         continue  # [cad] / [hw] / [ros] code, and the data packages
     try:
         importlib.import_module(m.name)

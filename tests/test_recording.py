@@ -16,7 +16,8 @@ import pytest
 
 from conftest import run_cli
 from whisker.design import default_design
-from whisker.data.recording import Recorder, RecordingError, load_session, read_table
+from whisker.data.recording import Recorder, RecordingError
+from whisker.data.session import load_session, read_table
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -7,7 +7,8 @@ import pytest
 
 from conftest import run_cli
 from whisker.design import default_design
-from whisker.data.recording import Recorder, load_session
+from whisker.data.recording import Recorder
+from whisker.data.session import load_session
 from whisker.data.recplot import fig8_data, plot_fig8
 
 FPS = 20.0

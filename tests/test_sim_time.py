@@ -9,7 +9,7 @@ import numpy as np
 from click.testing import CliRunner
 
 from whisker.cli import main
-from whisker.data.recording import load_session
+from whisker.data.session import load_session
 
 
 def _slow_render(monkeypatch, delay_s):

@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from conftest import run_cli
 from whisker.design import load_design
 from whisker.sensing.states import (CONTACT, DYNAMIC, REST, AdaptiveEstimator, AuthorsEstimator, StateInputError,
-                            make_estimator, run_estimator, state_scores)
+                                    make_estimator)
+from whisker.sensing.states_offline import run_estimator, state_scores
 from whisker.vision.trackfile import TracksError, read_tracks
 
 

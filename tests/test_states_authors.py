@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 from conftest import peer_data
-from whisker.sensing.states import CONTACT, DYNAMIC, REST, AuthorsEstimator, AuthorsParams, run_estimator
+from whisker.sensing.states import CONTACT, DYNAMIC, REST, AuthorsEstimator, AuthorsParams
+from whisker.sensing.states_offline import run_estimator
 
 
 def peer_code() -> Path | None:

@@ -1,4 +1,5 @@
-"""The build-scatter study (whisker.coil.tolerance) and the end stop (whisker.design.stop)."""
+"""The build-scatter study (whisker.coil.tolerance, its table whisker.coil.tolerance_table) and the end stop
+(whisker.design.stop)."""
 
 import math
 import shutil
@@ -11,25 +12,26 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from whisker.coil import tolerance as T
+from whisker.coil import tolerance_table as TT
 from whisker.design import load_design
 
 
 @pytest.fixture(scope="module")
 def tol():
-    return T.load_tolerances()
+    return TT.load_tolerances()
 
 
 def test_table_names_every_factor_with_a_source(tol):
-    assert set(T.FACTORS) <= set(tol)
+    assert set(TT.FACTORS) <= set(tol)
     for t in tol.values():
-        assert t.lo <= t.hi and t.source.strip() and t.level in T.LEVELS
+        assert t.lo <= t.hi and t.source.strip() and t.level in TT.LEVELS
 
 
 @settings(max_examples=60, deadline=None)
 @given(lo=st.floats(-10, 10), width=st.floats(0, 10), u=st.lists(st.floats(0, 1), min_size=1, max_size=20))
 def test_unit_draws_map_into_the_range(lo, width, u):
-    t = T.Tolerance("x", "whisker", "offset", lo, lo + width, "mm", "x", "s")
-    v = T.to_values(t, np.array(u))
+    t = TT.Tolerance("x", "whisker", "offset", lo, lo + width, "mm", "x", "s")
+    v = TT.to_values(t, np.array(u))
     assert np.all(v >= lo - 1e-9) and np.all(v <= lo + width + 1e-9)
     # monotone: a larger draw never gives a smaller value
     order = np.argsort(u, kind="stable")
@@ -40,7 +42,7 @@ def test_unit_draws_map_into_the_range(lo, width, u):
 @given(sensors=st.integers(1, 40), n=st.integers(1, 8), seed=st.integers(0, 1000))
 def test_draws_are_in_the_unit_cube_and_shared_per_sensor(tol, sensors, n, seed):
     u = T.draws(tol, sensors, n, seed)
-    for f in T.FACTORS:
+    for f in TT.FACTORS:
         assert u[f].shape == (sensors * n,) and np.all((u[f] >= 0) & (u[f] <= 1))
         per = u[f].reshape(sensors, n)
         if tol[f].level == "sensor":
@@ -116,8 +118,8 @@ def test_min_above_max_is_refused_in_one_line(tmp_path):
     text = (hw_dir() / "tolerances.csv").read_text().replace("remanence,sensor,absolute,1.17,1.47",
                                                              "remanence,sensor,absolute,1.47,1.17")
     bad.write_text(text)
-    with pytest.raises(T.ToleranceError, match=r"remanence.*min 1.47 > max 1.17") as err:
-        T.load_tolerances(bad)
+    with pytest.raises(TT.ToleranceError, match=r"remanence.*min 1.47 > max 1.17") as err:
+        TT.load_tolerances(bad)
     assert "\n" not in str(err.value)
 
 

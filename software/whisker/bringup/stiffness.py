@@ -253,6 +253,7 @@ def bringup_levels(design, per_whisker_k) -> dict:
     """
     from whisker.coil import tolerance
     from whisker.coil.tilt import pull_in, stop_reach_current_A
+    from whisker.coil.tolerance_table import load_tolerances
     from whisker.design.wire import temperature_factor
     from whisker.drive.guard import full_scale_voltage, max_level
 
@@ -260,7 +261,7 @@ def bringup_levels(design, per_whisker_k) -> dict:
     i_fs = full_scale_voltage(design) / r20            # A at level 1, cold coil
     top = max_level(design)
     base = min(top, design.actuation.voltage / full_scale_voltage(design))
-    tol = tolerance.load_tolerances()
+    tol = load_tolerances()
     hot = float(temperature_factor(tol["coil_temperature"].hi) / temperature_factor(20.0))
     safe, grasp, short = [], [], []
     for i, k in enumerate(per_whisker_k):

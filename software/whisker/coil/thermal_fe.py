@@ -2,7 +2,7 @@
 thermal network (whisker.coil.thermal_network) is checked against. Needs scikit-fem (the library of
 the membrane model): ``pip install 'whisker-array[fem]'``.
 
-Geometry (mm) from the same design readers as the network (whisker.coil.thermal_network.geometry,
+Geometry (mm) from the same design readers as the network (whisker.coil.thermal_parts.geometry,
 whisker.design.former): the winding (an annulus about the radial coil axis), the bobbin's core,
 outer flange and rod tab (resin, with the rod's socket), the glue annulus in the socket, the rod
 from the socket's floor to the membrane's upper face, and the whisker's share of the membrane (a
@@ -26,7 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from whisker.coil.thermal_network import ThermalNetwork, fin_conductance_W_per_K
+from whisker.coil.thermal_network import ThermalNetwork
+from whisker.coil.thermal_parts import fin_conductance_W_per_K
 
 # "bobbin": the rod tab (resin); "resin": the core and the outer flange; "rod": the rod in the membrane
 # (the network's rod node), "rod below": the rest of it
@@ -123,7 +124,7 @@ class ConductionFE:
         net, M = self.net, self.net.mat
         g = net.geo
         mesh, e = self.mesh, sk.ElementHex1()
-        h, hr = net._h()
+        h, hr = net.film_coefficients_W_m2K()
         k = {0: net.winding_conductivity_W_mK(), 1: M["bobbin"].conductivity_W_mK, 5: M["bobbin"].conductivity_W_mK, 2: M["rod_glue"].conductivity_W_mK,
              3: M["rod"].conductivity_W_mK, 6: M["rod"].conductivity_W_mK, 4: M["membrane"].conductivity_W_mK}
         v_w = math.pi * (g.winding_ro ** 2 - g.winding_ri ** 2) * g.winding_length
@@ -246,10 +247,11 @@ class ConductionFE:
                         {p: amb + v for p, v in self._means(Tss).items()}, self.mesh.t.shape[1], self.dofs)
 
 
-def network_means(design, power_W: float, times_s) -> tuple[dict, dict]:
+def network_means(design, power_W: float, times_s, **network) -> tuple[dict, dict]:
     """The network's (exchange=False) answer to the same question as :meth:`ConductionFE.run`:
-    the winding, bobbin (tab), rod and membrane node temperatures at `times_s` and at steady state, C."""
-    net = ThermalNetwork(design, exchange=False, max_substep_s=0.01)
+    the winding, bobbin (the tab's volume mean), rod and membrane node temperatures at `times_s` and at
+    steady state, C. `network`: more ThermalNetwork arguments (tab_nodes)."""
+    net = ThermalNetwork(design, exchange=False, max_substep_s=0.01, **network)
     p = np.zeros(net.n)
     p[0] = power_W
     x = net.initial_state()

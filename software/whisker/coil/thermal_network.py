@@ -1,201 +1,58 @@
-"""Thermal network of the whole sensor: a node per part, conductances and heat capacities from the
-design's geometry (whisker.design.former, whisker.coil.winding, [mount], [membrane]) and the material
-table (hw/materials/thermal.csv, whisker.coil.thermal_materials). Units: C, W, J/K, W/K, s, mm.
-
-Nodes. Per whisker i (5 each): ``winding`` (copper + enamel, and the bobbin's core and outer flange,
-which sit inside and against the winding), ``bobbin`` (the rod tab of the resin bobbin),
-``rod`` (the carbon-fibre rod from its glued socket in the tab up through the membrane),
-``membrane`` (the whisker's share of the Ecoflex membrane, an annulus around the rod), ``magnet``
-(the NdFeB disc in its glued pocket). Shared (2): ``cavity air`` (the closed air under the membrane)
-and ``mount`` (the PLA wall). The outside air is a fixed node at ``[thermal] ambient``.
-
-Conductances (each formula's source in :func:`conductances`):
-
-- winding -> bobbin: conduction through the winding along its axis to the tab face (uniformly
-  heated slab, mean-to-face L/(3 k A)) in series with the tab's resin;
-  the winding's transverse conductivity from Maxwell's formula for parallel cylinders in a matrix
-  (copper in enamel: k = k_m (k_f + k_m + phi (k_f - k_m)) / (k_f + k_m - phi (k_f - k_m)));
-- bobbin -> rod: the resin around the socket, the glue annulus ln(r_s/r_r)/(2 pi k L), the rod from
-  the socket's middle to the membrane's mid-plane (L / (k A));
-- rod -> outside: the 63 mm protrusion as a fin, sqrt(h P k A) tanh(m L_c) (Incropera eq. 3.81,
-  corrected length L + D/4);
-- rod -> membrane: the membrane share as an annular fin with an adiabatic rim (the neighbours'
-  symmetry), efficiency eta from Incropera eq. 3.96 (Bessel functions); the node holds the fin's
-  mean temperature, so G = eta h A / (1 - eta) in series with the faces' h A;
-- surfaces -> cavity air and mount -> outside: convection ``[thermal] convection_coefficient``;
-  radiation linearised, 4 eps sigma T_m^3 (T_m midway between ambient and the first limit), from
-  the coil and bobbin to the mount wall and from outer faces to the outside;
-- magnet -> mount: the glue layer behind it (``mount.glue_gap``) and the PLA to the wall's middle.
+"""The sensor's thermal network: its state, its implicit time step and steady state, each material
+against its own limit, and the answers at a constant voltage (the coil report, the explorer,
+`whisker coil thermal`). The nodes, capacities and conductances come from the design's geometry and the
+material table in whisker.coil.thermal_parts (its docstring names every formula's source).
+Units: C, W, J/K, W/K, s.
 
 Heat: I^2 R(T) in each winding, R(T) = R20 (1 + alpha (T - 20)) (whisker.coil). The network is
 linear in the temperatures for a given current, C dT/dt = A T + b, and is integrated implicitly
 (backward Euler, sub-steps of at most ``max_substep_s``), stable for any step; the benchmark
 (benchmarks/bench_thermal.py) measures its error against a tight ODE solution and the finite-element
-model (whisker.coil.thermal_fe).
+model (whisker.coil.thermal_fe), and the bobbin tab's ladder against its number of slices.
 
-Limits: each node carries the materials that reach its temperature (the winding: its enamel and the
-bobbin resin it touches; the bobbin: resin and the rod's glue; the rod: the rod, its glue and the
-Ecoflex it passes through; the membrane: Ecoflex; the magnet: NdFeB, its glue and the PLA pocket; the
-mount: PLA). The weakest (smallest headroom) sets the limit (:meth:`ThermalNetwork.headroom`).
+Limits: each node carries the materials that reach its temperature (whisker.coil.thermal_parts,
+NODE_MATERIALS; the tab's at its hottest slice). The weakest (smallest headroom) sets the limit
+(:meth:`ThermalNetwork.headroom`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from whisker import coil as _coil
 from whisker.coil import thermal_materials as tm
+from whisker.coil import thermal_parts as tp
 
-SIGMA = 5.670374419e-8  # W/(m^2 K^4), Stefan-Boltzmann
-KELVIN = 273.15
-PER_WHISKER = ("winding", "bobbin", "rod", "membrane", "magnet")
-SHARED = ("cavity air", "mount")
-# node -> the part roles whose material reaches that node's temperature (first: the node's own)
-NODE_MATERIALS = {
-    "winding": ("enamel", "bobbin"),
-    "bobbin": ("bobbin", "rod_glue"),
-    "rod": ("rod", "rod_glue", "membrane"),
-    "membrane": ("membrane",),
-    "magnet": ("magnet", "magnet_glue", "mount"),
-    "cavity air": (),
-    "mount": ("mount",),
-}
-
-
-def maxwell_conductivity(k_fibre: float, k_matrix: float, fraction: float) -> float:
-    """Transverse conductivity of parallel cylinders (volume fraction `fraction`) in a matrix, W/(m K).
-
-    Maxwell (Rayleigh's first term) for cylinders: k = k_m (k_f + k_m + phi (k_f - k_m)) /
-    (k_f + k_m - phi (k_f - k_m)) (e.g. Hashin & Shtrikman's lower bound in 2-D); between k_m and k_f.
-    """
-    if not (0.0 <= fraction < 1.0) or k_fibre <= 0 or k_matrix <= 0:
-        raise ValueError(f"maxwell_conductivity: need 0 <= fraction < 1 and k > 0 (got {fraction}, "
-                         f"{k_fibre}, {k_matrix})")
-    d = k_fibre - k_matrix
-    return k_matrix * (k_fibre + k_matrix + fraction * d) / (k_fibre + k_matrix - fraction * d)
-
-
-def fin_conductance_W_per_K(h: float, k: float, diameter_mm: float, length_mm: float) -> float:
-    """Heat a pin fin (the rod above the membrane) takes from its root per kelvin, W/K.
-
-    G = sqrt(h P k A) tanh(m L_c), m = sqrt(h P / (k A)), L_c = L + D/4 (Incropera 7th ed. eq. 3.81 with
-    the corrected length, Table 3.4 case A)."""
-    D, L = diameter_mm * 1e-3, length_mm * 1e-3
-    P, A = math.pi * D, math.pi * D * D / 4.0
-    m = math.sqrt(h * P / (k * A))
-    return math.sqrt(h * P * k * A) * math.tanh(m * (L + D / 4.0))
-
-
-def annular_fin_efficiency(h: float, k: float, thickness_mm: float, r1_mm: float, r2_mm: float) -> float:
-    """Efficiency of an annular fin of thickness t, convection h (the sum of both faces' h) and an
-    adiabatic rim at r2 (Incropera 7th ed. eq. 3.96 / Table 3.5), 0..1."""
-    from scipy.special import i0, i1, k0, k1
-
-    t, r1, r2 = thickness_mm * 1e-3, r1_mm * 1e-3, r2_mm * 1e-3
-    if r2 <= r1:
-        return 1.0
-    m = math.sqrt(h / (k * t))
-    num = k1(m * r1) * i1(m * r2) - i1(m * r1) * k1(m * r2)
-    den = i0(m * r1) * k1(m * r2) + k0(m * r1) * i1(m * r2)
-    return float(min(1.0, (2.0 * r1 / m) / (r2 * r2 - r1 * r1) * num / den))
-
-
-def winding_face_resistance_K_per_W(length_mm: float, k: float, area_mm2: float) -> float:
-    """Mean temperature of a uniformly heated slab of `length_mm` to its one cooled face (the other
-    adiabatic): L / (3 k A), K/W (T(x) parabolic: mean - face = q L^2 / (3 k), Q = q L A)."""
-    return (length_mm * 1e-3) / (3.0 * k * area_mm2 * 1e-6)
-
-
-@dataclass(frozen=True)
-class Geometry:
-    """What the network reads from the design for one whisker (mm, mm^2, mm^3)."""
-
-    winding_ri: float
-    winding_ro: float
-    winding_length: float
-    coil_ro: float
-    flange: float
-    tab_x: float
-    tab_y: float
-    tab_z: float
-    bore_r: float
-    rod_r: float
-    socket_r: float
-    socket_depth: float
-    rod_socket_to_membrane_mid: float
-    rod_in_cavity: float
-    rod_total_below: float
-    protrusion: float
-    membrane_t: float
-    membrane_r2: float
-    magnet_r: float
-    magnet_h: float
-    glue_gap: float
-    clearance: float
-    cavity_r: float
-    cavity_h: float
-    mount_ro: float
-    copper_mass_g: float
-    enamel_mass_g: float
-    copper_fill: float
-
-
-def geometry(design) -> Geometry:
-    from whisker.design.former import layout
-
-    d, c, b = design, design.coil, design.bobbin
-    f = layout(d)
-    w = _coil.winding(d)
-    t = d.membrane.thickness
-    sock_depth = f.tab_top - f.socket_bottom
-    n = d.whiskers.count
-    m = d.membrane
-    polygon_area = m.sides * m.inscribed_radius ** 2 * math.tan(math.pi / m.sides)
-    ri, ro = f.winding_inner_diameter / 2.0, w.wound_outer_diameter_mm / 2.0
-    return Geometry(
-        winding_ri=ri, winding_ro=ro, winding_length=f.winding_length, coil_ro=c.outer_diameter / 2.0,
-        flange=b.flange, tab_x=f.tab[1] - f.tab[0], tab_y=2 * f.half_width, tab_z=f.tab_top - f.tab_bottom,
-        bore_r=f.bore / 2.0, rod_r=d.whiskers.rod_diameter / 2.0, socket_r=f.socket_diameter / 2.0,
-        socket_depth=sock_depth, rod_socket_to_membrane_mid=sock_depth / 2.0 - f.tab_top + t / 2.0,
-        rod_in_cavity=-f.tab_top, rod_total_below=d.rod_below_membrane + t, protrusion=d.whiskers.protrusion,
-        membrane_t=t, membrane_r2=math.sqrt(polygon_area / n / math.pi), magnet_r=d.magnet.diameter / 2.0,
-        magnet_h=d.magnet.height, glue_gap=d.mount.glue_gap, clearance=d.print.clearance,
-        cavity_r=d.cavity_radius, cavity_h=-d.camera_z, mount_ro=float(d.mount.outer_radius),
-        copper_mass_g=w.copper_mass_g, enamel_mass_g=w.enamel_mass_g,
-        copper_fill=w.turns * math.pi * c.wire_diameter ** 2 / 4.0 / ((ro - ri) * f.winding_length))
-
-
-def limits_by_node(design) -> dict[str, list[tuple[str, str, float]]]:
-    """node -> [(role, material name, limit C), ...] of the materials that reach its temperature."""
-    out = {}
-    for node, roles in NODE_MATERIALS.items():
-        out[node] = [(r, tm.row_name(design, r), tm.limit_C(design, r)) for r in roles
-                     if math.isfinite(tm.limit_C(design, r))]
-    return out
+# Slices of the winding's and the bobbin tab's ladders (whisker.coil.thermal_parts): the tab's mean
+# rise at 2 s is within 5 % and at steady state within 1 % of 32 slices each (benchmarks/results/
+# thermal.md, table 1b), at 0.5 ms per 20 ms step of 8 coils.
+WINDING_NODES = 6
+TAB_NODES = 6
 
 
 class ThermalNetwork:
-    """The sensor's thermal network (module docstring). State: node temperatures (C), shape (5 n + 2,):
-    whisker i's nodes at 5 i .. 5 i + 4 in the order of PER_WHISKER, then cavity air, mount.
+    """The sensor's thermal network (whisker.coil.thermal_parts). State: node temperatures (C), shape
+    (K n + 2,), K = M + N + 3: whisker i's M winding slices from K i (the first against the tab), its N
+    tab slices (the first against the winding), rod, membrane, magnet; then cavity air, mount.
 
     ``exchange`` = False cuts the cavity air and the mount out (every surface sees the ambient
     directly, radiation to the ambient): the configuration of the finite-element check.
     """
 
-    def __init__(self, design, *, exchange: bool = True, max_substep_s: float = 0.05):
+    def __init__(self, design, *, exchange: bool = True, max_substep_s: float = 0.05,
+                 winding_nodes: int = WINDING_NODES, tab_nodes: int = TAB_NODES):
         self.design = design
         self.n = int(design.whiskers.count)
         self.mat = tm.design_materials(design)
-        self.geo = geometry(design)
+        self.geo = tp.geometry(design)
         self.ambient_C = float(design.thermal.ambient)
         self.exchange = bool(exchange)
         self.max_substep_s = float(max_substep_s)
         self.r20_ohm = float(_coil.resistance_ohm(design, 20.0))
         self.alpha = _coil.ALPHA20_PER_K
-        lim = limits_by_node(design)
+        lim = tp.limits_by_node(design)
         self.node_limits = lim
         self.limit_table = [(node, role, name, c) for node, items in lim.items() for role, name, c in items]
         first = min(self.limit_table, key=lambda r: r[3])
@@ -203,157 +60,54 @@ class ThermalNetwork:
         self.limit_label = label(first)
         # the lowest limit at the winding's own temperature (the hottest node: its resistance there)
         self.winding_limit_C = min(c for _r, _n, c in lim["winding"]) if lim["winding"] else self.limit_C
-        self.size = 5 * self.n + 2
-        self.C, self.G, self.g_amb = self._build()
-        self.winding_idx = np.arange(self.n) * 5
+        self.winding = tp.winding_ladder(self.geo, self.mat, winding_nodes)
+        self.tab = tp.tab_ladder(self.geo, self.mat, tab_nodes)
+        self.winding_nodes, self.tab_nodes = self.winding.capacity.size, self.tab.capacity.size
+        self.per_whisker = self.winding_nodes + self.tab_nodes + 3
+        self.size = self.per_whisker * self.n + 2
+        h, hr = self.film_coefficients_W_m2K()
+        self.C, self.G, self.g_amb = tp.assemble(self.capacities_J_per_K(), self.conductances(), self.winding,
+                                                 self.tab, h, hr, self.n, self.exchange)
         self._base = None
 
-    # ---- the parts ------------------------------------------------------------------------------
-    def _h(self):
-        th = self.design.thermal
-        tm_K = (self.ambient_C + min(self.limit_C, self.ambient_C + 100.0)) / 2.0 + KELVIN
-        h_rad = 4.0 * float(th.emissivity) * SIGMA * tm_K ** 3
-        return float(th.convection_coefficient), h_rad
+    # ---- the parts (whisker.coil.thermal_parts) ----------------------------------------------------
+    def film_coefficients_W_m2K(self) -> tuple[float, float]:
+        """(convection, linearised radiation), W/(m^2 K)."""
+        return tp.film_coefficients_W_m2K(self.design, self.limit_C)
 
     def capacities_J_per_K(self) -> dict[str, float]:
-        """Heat capacity of each of one whisker's nodes and of the shared nodes, J/K."""
-        g, M = self.geo, self.mat
-        core = math.pi * (g.winding_ri ** 2 - g.bore_r ** 2) * g.winding_length
-        flange = math.pi * g.coil_ro ** 2 * g.flange
-        rim = math.pi * (g.coil_ro ** 2 - g.winding_ro ** 2) * 0.0
-        tab = g.tab_x * g.tab_y * g.tab_z - math.pi * g.socket_r ** 2 * g.socket_depth
-        rod_v = math.pi * g.rod_r ** 2 * g.rod_total_below
-        glue_v = math.pi * (g.socket_r ** 2 - g.rod_r ** 2) * g.socket_depth
-        a_p = math.pi * (g.membrane_r2 ** 2 - g.rod_r ** 2)
-        mag_v = math.pi * g.magnet_r ** 2 * g.magnet_h
-        cav_v = math.pi * g.cavity_r ** 2 * g.cavity_h
-        wall_v = math.pi * (g.mount_ro ** 2 - g.cavity_r ** 2) * g.cavity_h
-        rc = {k: v.volumetric_heat_J_per_mm3K for k, v in M.items()}
-        return {
-            "winding": (g.copper_mass_g * M["winding"].specific_heat_J_gK + g.enamel_mass_g * M["enamel"].specific_heat_J_gK
-                        + (core + flange + rim) * rc["bobbin"]),
-            "bobbin": tab * rc["bobbin"],
-            "rod": rod_v * rc["rod"] + glue_v * rc["rod_glue"],
-            "membrane": a_p * g.membrane_t * rc["membrane"],
-            "magnet": mag_v * rc["magnet"],
-            "cavity air": cav_v * rc["air"],
-            "mount": wall_v * rc["mount"],
-        }
+        """Heat capacity of each of one whisker's parts (the tab whole) and of the shared nodes, J/K."""
+        return tp.capacities_J_per_K(self.geo, self.mat)
 
     def winding_conductivity_W_mK(self) -> float:
         """Transverse conductivity of the winding (copper in its enamel, Maxwell), W/(m K)."""
-        return maxwell_conductivity(self.mat["winding"].conductivity_W_mK, self.mat["enamel"].conductivity_W_mK,
-                                    min(self.geo.copper_fill, 0.9))
+        return tp.winding_conductivity_W_mK(self.geo, self.mat)
 
     def conductances(self) -> dict[str, float]:
-        """Every conductance of one whisker (and its shares of the shared ones), W/K."""
-        g, M = self.geo, self.mat
-        h, hr = self._h()
-        k_w = self.winding_conductivity_W_mK()
-        k_b, k_g, k_r = M["bobbin"].conductivity_W_mK, M["rod_glue"].conductivity_W_mK, M["rod"].conductivity_W_mK
-        k_m, k_mg = M["membrane"].conductivity_W_mK, M["magnet_glue"].conductivity_W_mK
-        k_pla = M["mount"].conductivity_W_mK
-        mm2 = 1e-6
-        face = math.pi * (g.winding_ro ** 2 - g.winding_ri ** 2)
-        # winding -> tab: the winding along its axis, then the resin from the tab face to the tab's middle
-        r_w = winding_face_resistance_K_per_W(g.winding_length, k_w, face)
-        r_tab = winding_face_resistance_K_per_W(g.tab_x, k_b, g.tab_y * g.tab_z)
-        # tab -> rod: resin around the socket (tab cross-section's equivalent radius), glue annulus,
-        # rod from the socket's middle to the membrane's mid-plane
-        r_eq = max(math.sqrt(g.tab_x * g.tab_y / math.pi), g.socket_r * 1.01)
-        L_s = g.socket_depth * 1e-3
-        r_resin = math.log(r_eq / g.socket_r) / (2 * math.pi * k_b * L_s)
-        r_glue = math.log(g.socket_r / g.rod_r) / (2 * math.pi * k_g * L_s)
-        a_rod = math.pi * g.rod_r ** 2 * mm2
-        r_rod = g.rod_socket_to_membrane_mid * 1e-3 / (k_r * a_rod)
-        # rod -> outside: half the membrane thickness of rod, then the protrusion as a fin
-        g_fin = fin_conductance_W_per_K(h + hr, k_r, 2 * g.rod_r, g.protrusion)
-        g_rod_out = 1.0 / (g.membrane_t / 2.0 * 1e-3 / (k_r * a_rod) + 1.0 / g_fin)
-        # rod -> membrane (annular fin, both faces), membrane faces -> outside (upper) / cavity (lower)
-        a_p = math.pi * (g.membrane_r2 ** 2 - g.rod_r ** 2) * mm2
-        h_up, h_down = h + hr, h + (hr if not self.exchange else 0.0)
-        eta = annular_fin_efficiency(h_up + h_down, k_m, g.membrane_t, g.rod_r, g.membrane_r2)
-        hA = (h_up + h_down) * a_p
-        g_rod_mem = hA * eta / max(1.0 - eta, 1e-9)
-        # coil + bobbin surfaces in the cavity (flange face and rim, winding side, the tab's free faces)
-        a_coil = (2 * math.pi * g.winding_ro * g.winding_length + math.pi * g.coil_ro ** 2
-                  + 2 * math.pi * g.coil_ro * g.flange + math.pi * (g.coil_ro ** 2 - g.winding_ro ** 2)) * mm2
-        a_tab = (2 * g.tab_x * g.tab_z + 2 * g.tab_y * g.tab_z + 2 * g.tab_x * g.tab_y - face
-                 - math.pi * g.socket_r ** 2) * mm2
-        a_rod_cav = 2 * math.pi * g.rod_r * g.rod_in_cavity * mm2
-        # magnet: its face in the cavity; glue behind it and the pocket's air gap around it to the PLA,
-        # then the PLA to the wall's middle
-        a_mag_face = math.pi * g.magnet_r ** 2 * mm2
-        wall_t = g.mount_ro - g.cavity_r
-        g_glue = k_mg * a_mag_face / (g.glue_gap * 1e-3)
-        a_side = 2 * math.pi * g.magnet_r * g.magnet_h * mm2
-        g_side = M["air"].conductivity_W_mK * a_side / (g.clearance * 1e-3)
-        g_pla = k_pla * (a_mag_face + a_side) / (max(wall_t - g.magnet_h - g.glue_gap, 0.1) / 2.0 * 1e-3 + 1e-6)
-        g_mag_mount = 1.0 / (1.0 / (g_glue + g_side) + 1.0 / g_pla)
-        n = self.n
-        a_wall_in = (2 * math.pi * g.cavity_r * g.cavity_h + math.pi * g.cavity_r ** 2) * mm2
-        a_wall_out = (2 * math.pi * g.mount_ro * g.cavity_h + math.pi * (g.mount_ro ** 2 - g.cavity_r ** 2)) * mm2
-        return {
-            "winding-bobbin": 1.0 / (r_w + r_tab),
-            "bobbin-rod": 1.0 / (r_resin + r_glue + r_rod),
-            "rod-outside": g_rod_out,
-            "rod-membrane": g_rod_mem,
-            "membrane-outside": h_up * a_p,
-            "membrane-cavity": h_down * a_p,
-            "winding-cavity": h * a_coil,
-            "winding-mount (radiation)": hr * a_coil,
-            "bobbin-cavity": h * a_tab,
-            "bobbin-mount (radiation)": hr * a_tab,
-            "rod-cavity": h * a_rod_cav,
-            "magnet-cavity": h * a_mag_face,
-            "magnet-mount": g_mag_mount,
-            "cavity-mount (share)": h * a_wall_in / n,
-            "mount-outside (share)": (h + hr) * a_wall_out / n,
-        }
+        """Every conductance of one whisker (the tab's whole) and its shares of the shared ones, W/K."""
+        h, hr = self.film_coefficients_W_m2K()
+        return tp.conductances(self.geo, self.mat, h, hr, self.n, self.exchange)
 
-    def _build(self):
-        """(C (size,), G (size, size) symmetric conductance matrix between nodes, g_amb (size,) to outside)."""
-        cap = self.capacities_J_per_K()
-        gc = self.conductances()
-        n, N = self.n, self.size
-        C = np.zeros(N)
-        G = np.zeros((N, N))
-        ga = np.zeros(N)
-        air, wall = 5 * n, 5 * n + 1
+    def columns(self, node: str) -> np.ndarray:
+        """Indices into the state of `node` (a name of thermal_parts.PER_WHISKER or SHARED): (rows, n),
+        one row per node (the winding and the tab: one per slice, from their common face)."""
+        cache = self.__dict__.setdefault("_colcache", {})
+        if node not in cache:
+            cache[node] = self._columns(node)
+        return cache[node]
 
-        def link(a, b, g):
-            if b is None:
-                ga[a] += g
-            else:
-                G[a, b] += g
-                G[b, a] += g
-
-        cav = air if self.exchange else None
-        mnt = wall if self.exchange else None
-        for i in range(n):
-            w, b, r, m, q = 5 * i, 5 * i + 1, 5 * i + 2, 5 * i + 3, 5 * i + 4
-            for k, name in enumerate(PER_WHISKER):
-                C[5 * i + k] = cap[name]
-            link(w, b, gc["winding-bobbin"])
-            link(b, r, gc["bobbin-rod"])
-            link(r, None, gc["rod-outside"])
-            link(r, m, gc["rod-membrane"])
-            link(m, None, gc["membrane-outside"])
-            link(m, cav, gc["membrane-cavity"])
-            link(w, cav, gc["winding-cavity"])
-            link(w, mnt, gc["winding-mount (radiation)"])
-            link(b, cav, gc["bobbin-cavity"])
-            link(b, mnt, gc["bobbin-mount (radiation)"])
-            link(r, cav, gc["rod-cavity"])
-            link(q, cav, gc["magnet-cavity"])
-            link(q, mnt, gc["magnet-mount"])
-            if self.exchange:
-                link(air, wall, gc["cavity-mount (share)"])
-                link(wall, None, gc["mount-outside (share)"])
-        C[air], C[wall] = cap["cavity air"], cap["mount"]
-        if not self.exchange:  # unused nodes: pinned to ambient by a large conductance
-            ga[air] = ga[wall] = 1e6
-        return C, G, ga
+    def _columns(self, node: str) -> np.ndarray:
+        K, Mw, N, n = self.per_whisker, self.winding_nodes, self.tab_nodes, self.n
+        base = np.arange(n) * K
+        if node == "winding":
+            return base[None, :] + np.arange(Mw)[:, None]
+        if node == "bobbin":
+            return base[None, :] + Mw + np.arange(N)[:, None]
+        if node in tp.PER_WHISKER:
+            return base[None, :] + Mw + N + tp.PER_WHISKER.index(node) - 2
+        if node in tp.SHARED:
+            return np.full((1, n), K * n + tp.SHARED.index(node))
+        raise KeyError(f"ThermalNetwork: no node {node!r}")
 
     # ---- dynamics ----------------------------------------------------------------------------------
     def initial_state(self, temperature_C: float | None = None) -> np.ndarray:
@@ -365,10 +119,37 @@ class ThermalNetwork:
             self._base = (L, self.g_amb * self.ambient_C)
         return self._base
 
+    def _joule(self, x, currents_A=None, power_W=None, volts=None):
+        """(b, d) of the windings' Joule heat, linear in the state about `x`: heat = b + d * T (W per
+        node). Winding slice j holds the share f_j of the wire: with a current its heat is I^2 R20 f_j
+        (1 + alpha (T_j - 20)), exact and implicit; with a fixed power f_j P; with a fixed voltage
+        f_j V^2 / R(T_mean), linearised about x's mean."""
+        W = self.columns("winding")
+        f = self.winding.share[:, None]              # each slice's share of the wire
+        b = np.zeros(self.size)
+        d = np.zeros(self.size)
+        if power_W is not None:
+            b[W] += np.asarray(power_W, dtype=float) * f
+        elif volts is not None:
+            v = np.asarray(volts, dtype=float)
+            f0 = 1.0 + self.alpha * (self.winding_C(x) - 20.0)
+            p0 = v * v / (self.r20_ohm * f0)
+            dp = -p0 * self.alpha / f0                 # dP/dT < 0: a warmer coil takes less at a fixed voltage
+            b[W] += (p0 - dp * self.winding_C(x)) * f
+            d[W] = dp * f
+        else:
+            i = np.asarray(currents_A, dtype=float)
+            if i.shape != (self.n,) or not np.all(np.isfinite(i)):
+                raise ValueError(f"ThermalNetwork.step_state: currents must be {self.n} finite numbers")
+            p0 = i * i * self.r20_ohm
+            b[W] += p0 * (1.0 - 20.0 * self.alpha) * f
+            d[W] = p0 * self.alpha * f               # dP/dT: heat that grows with the temperature
+        return b, d
+
     def heat_W(self, state: np.ndarray, currents_A) -> np.ndarray:
         """Joule heat of each winding at the state's winding temperatures, W (n,)."""
         i = np.asarray(currents_A, dtype=float)
-        return i * i * self.r20_ohm * (1.0 + self.alpha * (state[self.winding_idx] - 20.0))
+        return i * i * self.r20_ohm * (1.0 + self.alpha * (self.winding_C(state) - 20.0))
 
     def step_state(self, state, currents_A, dt_s: float, power_W=None, volts=None) -> np.ndarray:
         """State after dt_s with constant RMS currents (n,) in the windings, or a constant `power_W`
@@ -384,33 +165,60 @@ class ThermalNetwork:
         if dt == 0:
             return x.copy()
         _, src = self._system()
-        wi = self.winding_idx
-        b = src.copy()
-        diag = np.zeros(self.size)
-        if power_W is not None:
-            b[wi] += np.asarray(power_W, dtype=float)
-        elif volts is not None:
-            v = np.asarray(volts, dtype=float)
-            f0 = 1.0 + self.alpha * (x[wi] - 20.0)
-            p0 = v * v / (self.r20_ohm * f0)
-            dp = -p0 * self.alpha / f0                 # dP/dT < 0: a warmer coil takes less at a fixed voltage
-            b[wi] += p0 - dp * x[wi]
-            diag[wi] = dp
-        else:
-            i = np.asarray(currents_A, dtype=float)
-            if i.shape != (self.n,) or not np.all(np.isfinite(i)):
-                raise ValueError(f"ThermalNetwork.step_state: currents must be {self.n} finite numbers")
-            p0 = i * i * self.r20_ohm
-            b[wi] += p0 * (1.0 - 20.0 * self.alpha)
-            diag[wi] = p0 * self.alpha               # dP/dT: heat that grows with the temperature
+        heat, d = self._joule(x, currents_A, power_W, volts)
+        b = src + heat
         steps = max(1, math.ceil(dt / self.max_substep_s))
         h = dt / steps
-        M = self._implicit_matrix(h).copy()
-        M[wi, wi] -= diag[wi]
+        solve = self._block_solver(h, d)
         ch = self.C / h
         for _ in range(steps):
-            x = np.linalg.solve(M, ch * x + b)
+            x = solve(ch * x + b)
         return np.minimum(x, 5000.0)
+
+    def _blocks(self, h):
+        """The pattern of C/h + L (h None: L alone): the whiskers' diagonal blocks (n, K, K), block ->
+        shared (n, K, s), shared -> block (n, s, K) and shared (s, s); whiskers meet only through the
+        shared nodes (cavity air, mount). Cached per h."""
+        cache = self.__dict__.setdefault("_bcache", {})
+        out = cache.get(h)
+        if out is None:
+            A = self._system()[0] if h is None else self._implicit_matrix(h)
+            n, K = self.n, self.per_whisker
+            nK = n * K
+            blocks = A[:nK, :nK].reshape(n, K, n, K)[np.arange(n), :, np.arange(n), :].copy()
+            out = (blocks, A[:nK, nK:].reshape(n, K, -1).copy(), A[nK:, :nK].reshape(-1, n, K).transpose(1, 0, 2).copy(),
+                   A[nK:, nK:].copy())
+            if len(cache) > 64:
+                cache.clear()
+            cache[h] = out
+        return out
+
+    def _block_solver(self, h, d):
+        """x -> (C/h + L - diag(d))^-1 x (h None: (L - diag(d))^-1 x): the whiskers' blocks solved
+        together (batched LAPACK), the shared nodes through their Schur complement. Cheaper than a
+        dense solve of the whole network, and free of the threaded BLAS a dense solve of ~100 nodes
+        calls. The last solver is kept (the guard steps with the same h and currents)."""
+        key = (h, d.tobytes())
+        last = self.__dict__.get("_last_solver")
+        if last is not None and last[0] == key:
+            return last[1]
+        blocks, E, F, S = self._blocks(h)
+        n, K = self.n, self.per_whisker
+        nK = n * K
+        dd = d[:nK].reshape(n, K)
+        if np.any(dd):
+            blocks = blocks.copy()
+            blocks[:, np.arange(K), np.arange(K)] -= dd
+        inv = np.linalg.inv(blocks)
+        Z = inv @ E
+        schur = S - np.einsum("isk,ikt->st", F, Z)
+
+        def solve(r):
+            y = np.einsum("ijk,ik->ij", inv, r[:nK].reshape(n, K))
+            sh = np.linalg.solve(schur, r[nK:] - np.einsum("isk,ik->s", F, y))
+            return np.concatenate([(y - Z @ sh).ravel(), sh])
+        self._last_solver = (key, solve)
+        return solve
 
     def _implicit_matrix(self, h: float) -> np.ndarray:
         """C/h + L for the sub-step h (cached: the guard calls with the same h every update)."""
@@ -427,54 +235,59 @@ class ThermalNetwork:
     def steady_state(self, currents_A=None, power_W=None) -> np.ndarray:
         """Steady node temperatures at constant RMS currents (or powers), C (inf where runaway)."""
         L, src = self._system()
-        wi = self.winding_idx
-        b = src.copy()
-        M = L.copy()
-        if power_W is not None:
-            b[wi] += np.asarray(power_W, dtype=float)
-        else:
-            i = np.asarray(currents_A, dtype=float)
-            p0 = i * i * self.r20_ohm
-            b[wi] += p0 * (1.0 - 20.0 * self.alpha)
-            M[wi, wi] -= p0 * self.alpha
-        return np.linalg.solve(M, b)
+        heat, d = self._joule(self.initial_state(), currents_A, power_W)
+        return self._block_solver(None, d)(src + heat)
 
     # ---- limits ------------------------------------------------------------------------------------
     def node_temperatures(self, state) -> dict[str, np.ndarray]:
-        """node name -> temperatures (n,) per whisker, or (1,) for the shared ones, C."""
+        """node name -> temperatures (n,) per whisker, or (1,) for the shared ones, C; the tab
+        ("bobbin"): the mean of its slices by heat capacity (its volume mean, the finite-element
+        check's quantity). :meth:`tab_C` gives each slice."""
         x = np.asarray(state)
-        out = {name: x[k:5 * self.n:5] for k, name in enumerate(PER_WHISKER)}
-        out["cavity air"] = x[5 * self.n:5 * self.n + 1]
-        out["mount"] = x[5 * self.n + 1:5 * self.n + 2]
-        return out
+        out = {name: x[self.columns(name)[0]] for name in tp.PER_WHISKER}
+        out["winding"] = self.winding_C(x)
+        out["bobbin"] = self.tab.capacity @ self.tab_C(x) / self.tab.capacity.sum()
+        for name in tp.SHARED:
+            out[name] = x[self.columns(name)[0, :1]]
+        return {k: out[k] for k in (*tp.PER_WHISKER, *tp.SHARED)}
+
+    def tab_C(self, state) -> np.ndarray:
+        """Each slice of each whisker's tab, (tab_nodes, n), C (row 0 against the winding)."""
+        return np.asarray(state)[self.columns("bobbin")]
 
     def winding_C(self, state) -> np.ndarray:
-        return np.asarray(state)[self.winding_idx]
+        """Each winding's mean temperature over its wire (the resistance's), C (n,)."""
+        return self.winding.share @ np.asarray(state)[self.columns("winding")]
 
     def material_temperatures(self, state) -> dict[str, float]:
         """Highest temperature each limited material reaches anywhere in `state`, C ("role (material)")."""
-        nt = self.node_temperatures(state)
+        x = np.asarray(state)
         out: dict[str, float] = {}
         for node, items in self.node_limits.items():
             for role, name, _ in items:
                 key = f"{tm.ROLES[role][0]} ({name})"
-                out[key] = max(out.get(key, -math.inf), float(np.max(nt[node])))
+                out[key] = max(out.get(key, -math.inf), float(np.max(x[self.material_columns(node, role)])))
         return out
 
+    def material_columns(self, node: str, role: str) -> np.ndarray:
+        """The rows of :meth:`columns` where the material of `role` sits: every slice, but the rod's
+        glue only in the tab's slices its socket crosses."""
+        cols = self.columns(node)
+        if node == "bobbin" and role == "rod_glue":
+            return cols[self.tab.rod_share > 0]
+        return cols
+
     def _limit_index(self):
-        """(indices (rows, n) into the state, limits (rows,), labels (rows,)) of every limited material."""
+        """(indices (rows, n) into the state, limits (rows,), labels (rows,)) of every limited material
+        at every node it reaches (each tab slice a row)."""
         if getattr(self, "_lim_idx", None) is None:
             idx, lims, labels = [], [], []
-            names = list(PER_WHISKER)
             for node, items in self.node_limits.items():
-                if node in names:
-                    col = np.arange(self.n) * 5 + names.index(node)
-                else:
-                    col = np.full(self.n, 5 * self.n + list(SHARED).index(node))
                 for role, name, lim in items:
-                    idx.append(col)
-                    lims.append(lim)
-                    labels.append(f"{tm.ROLES[role][0]} ({name}, {lim:g} C) at the {node}")
+                    for col in self.material_columns(node, role):
+                        idx.append(col)
+                        lims.append(lim)
+                        labels.append(f"{tm.ROLES[role][0]} ({name}, {lim:g} C) at the {node}")
             self._lim_idx = (np.array(idx), np.array(lims, dtype=float), labels)
         return self._lim_idx
 
@@ -487,9 +300,14 @@ class ThermalNetwork:
         return room[k, np.arange(self.n)], [labels[j] for j in k]
 
     def describe(self) -> dict:
-        """Capacities, conductances and limits, for reports and docs."""
+        """Capacities, conductances (with the winding's and the tab's ladders) and limits, for reports."""
+        ladders = {name: {"slices": int(lad.capacity.size), "capacity_J_per_K": lad.capacity.tolist(),
+                          "slice_to_slice_W_per_K": lad.g_step.tolist(), "surface_m2": lad.surface.tolist()}
+                   for name, lad in (("winding", self.winding), ("bobbin", self.tab))}
+        ladders["bobbin"]["rod_share"] = self.tab.rod_share.tolist()
         return {"capacities_J_per_K": self.capacities_J_per_K(), "conductances_W_per_K": self.conductances(),
-                "winding_conductivity_W_mK": self.winding_conductivity_W_mK(),
+                "winding_to_tab_W_per_K": 1.0 / (self.winding.r_half_K_per_W + self.tab.r_half_K_per_W),
+                "ladders": ladders, "winding_conductivity_W_mK": self.winding_conductivity_W_mK(),
                 "limits": [{"node": n, "role": r, "material": m, "limit_C": c} for n, r, m, c in self.limit_table],
                 "first_limit": self.limit_label}
 

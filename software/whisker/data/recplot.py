@@ -21,7 +21,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from whisker.data.recording import Session, load_session
+from whisker.data.session import Session, load_session
 
 #: most points of the common time grid (a day at 10 ms)
 MAX_GRID_POINTS = 10_000_000

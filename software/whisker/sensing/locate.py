@@ -25,9 +25,15 @@ What the estimator handles, and what it does not:
 - a compliant object: its contact compliance c = d(indentation)/dF adds c / r^2 to 1 / (K - k). If the
   object's indentation law is given (`estimate(..., contact_indentation_mm=...)`), r is solved with
   it; if not, a soft object reads farther out than it is (docs/locate.md gives the bias);
-- slip: a contact that slides along the object under the sweep moves the base across the sweep axis
-  (in stick that motion is zero) and makes the base far more compliant than the rod allows; both are
-  tested, and a slipping or too-soft contact gets no distance;
+- slip (whisker.sensing.contact_slip): a stuck contact is elastic, so path independent and moving the
+  base only along the torque axis. A contact that slid in the first loading and stuck after
+  (shakedown: the rest tilt before the sweep differs from the later rest tilt) is located on the
+  later cycles; one that slides every cycle (the base moves across the sweep) is located at its
+  friction cone's edges when the rod's Coulomb coefficient ``mu`` is given (checked against the two
+  levels' force directions), else gets "slip"; a base more compliant than a rod held at its tip gets
+  "slip or soft contact";
+- an object of unknown compliance (``rigid_object=False``): its compliance only adds to the rod's, so
+  the rigid-object distance is an upper bound: status "upper bound", no distance;
 - no contact / no information: a whisker that follows the sweep like a free one is "no contact"; a
   sweep whose response is below the tracker's noise gets "not observable", never a number.
 """
@@ -46,7 +52,10 @@ DEFAULT_PERIOD_S = 0.2           # s, one on/off cycle of the square wave
 MIN_FRAMES = 8
 #: a distance whose 1-sigma uncertainty is above this fraction of the rod's protrusion is not reported
 NOT_OBSERVABLE_FRACTION = 0.25
-#: slip: across-axis response above this many standard errors (and above this fraction of the in-axis one)
+#: slip: motion across the torque axis (or a ratchet of the rest tilt, contact_slip.ratchet) above this many
+#: standard errors of the frame noise; and across-axis above this fraction of the in-axis response: the
+#: stuck contact's own cross-talk allowed for a coil torque axis or camera axes misaligned by up to
+#: atan(0.2) = 11 deg (a stuck isotropic rod moves the base only along the torque)
 SLIP_SIGMAS, SLIP_FRACTION = 4.0, 0.2
 
 
@@ -139,18 +148,19 @@ def check_sweep(design, amplitude: float, duration_s: float, start_C: float | No
 
 def tilt_from_tip_mm(design, whisker: int, tip_xy_mm) -> np.ndarray:
     """(F, 2) [radial, tangential] tilt (rad) of one whisker from its tracked tip displacement (F, 2),
-    sensor x, y in mm, by the small-angle Jacobian of whisker.coil.kinematics.tip_positions_mm."""
-    from whisker.coil.kinematics import tip_positions_mm
-
-    n = design.whiskers.count
-    h = 1e-4
-    base = tip_positions_mm(design, np.zeros((n, 2)))[whisker, :2]
-    J = np.zeros((2, 2))
-    for j in range(2):
-        th = np.zeros((n, 2))
-        th[whisker, j] = h
-        J[:, j] = (tip_positions_mm(design, th)[whisker, :2] - base) / h
-    return np.linalg.solve(J, np.asarray(tip_xy_mm, dtype=float).T).T
+    sensor x, y in mm: the exact inverse of whisker.coil.kinematics.tip_positions_mm (a universal joint:
+    the tip's displacement along the whisker's radial and tangential directions is
+    l_u (-sin(tr) cos(tt), sin(tt))). The small-angle Jacobian is off by theta^2 / 6 (6e-4 at 0.06 rad),
+    as much as the rod's bending signal next to a sliding contact's slide (whisker.sensing.contact_slip)."""
+    ang = math.radians(float(np.asarray(design.whisker_angles_deg)[whisker]))
+    cx, cy = math.cos(ang), math.sin(ang)
+    lever = float(design.l_u)                          # mm, pivot to tip (kinematics._point_mm)
+    d = np.atleast_2d(np.asarray(tip_xy_mm, dtype=float))
+    a = (d[:, 0] * cx + d[:, 1] * cy) / lever          # -sin(tr) cos(tt)
+    b = (-d[:, 0] * cy + d[:, 1] * cx) / lever         # sin(tt)
+    tt = np.arcsin(np.clip(b, -1.0, 1.0))
+    tr = -np.arcsin(np.clip(a / np.cos(tt), -1.0, 1.0))
+    return np.stack([tr, tt], axis=1)
 
 
 @dataclass
@@ -166,7 +176,7 @@ class Sweep:
 
 @dataclass
 class LocateResult:
-    status: str                       # "ok", "no contact", "slip or soft contact", "not observable", "ambiguous"
+    status: str     # "ok", "no contact", "slip", "slip or soft contact", "not observable", "ambiguous", "upper bound"
     message: str
     distance_mm: float | None = None
     distance_sigma_mm: float | None = None
@@ -186,15 +196,15 @@ class LocateResult:
 
 def calibrate_EI(design, sweep: Sweep, distance_mm: float, k: float | None = None) -> float:
     """Per-whisker calibration: EI (N*mm^2) from a sweep against a rigid object at a known distance."""
-    K, _, _, _ = _slopes(design, sweep)[:4]
+    b = _slopes(design, sweep)[0]
     k = membrane_stiffness_Nmm_per_rad(design)[0] if k is None else k
-    if K <= k:
+    if b <= 0 or 1.0 / b <= k:
         raise LocateError("calibration sweep shows no contact stiffness; press a rigid object against the rod")
-    return (K - k) * distance_mm / 3.0
+    return (1.0 / b - k) * distance_mm / 3.0
 
 
-def _slopes(design, sweep: Sweep):
-    """(K, sigma_K, across-axis slope / in-axis slope, its standard error ratio, tau, tilt, residual rad)."""
+def _frames(design, sweep: Sweep):
+    """(tau N*mm, tilt rad (F, 2), level) of the sweep's tracked frames, or LocateError."""
     t = np.asarray(sweep.t_s, dtype=float)
     lev = np.asarray(sweep.level, dtype=float)
     tilt = np.asarray(sweep.tilt_rad, dtype=float)
@@ -210,51 +220,88 @@ def _slopes(design, sweep: Sweep):
     if np.ptp(lev) < 1e-3:
         raise LocateError("recording without actuation: the coil level does not change during it; "
                           "locate needs a sweep (a recording made with one, or whisker locate --simulate)")
-    tau = coil_torque_Nmm(design, lev, tilt[:, 0])
+    return coil_torque_Nmm(design, lev, tilt[:, 0]), tilt, lev
+
+
+def _fit(tau, tilt):
+    """Least squares tilt = a + b tau on both axes: (a (2,), b (2,), standard error of b (2,), residual
+    std per frame (2,))."""
     A = np.stack([np.ones_like(tau), tau], axis=1)
-    coef, *_ = np.linalg.lstsq(A, tilt, rcond=None)      # tilt = a + b tau, both axes
+    coef, *_ = np.linalg.lstsq(A, tilt, rcond=None)
     resid = tilt - A @ coef
-    dof = max(1, len(tau) - 2)
-    s = np.sqrt((resid ** 2).sum(axis=0) / dof)
+    s = np.sqrt((resid ** 2).sum(axis=0) / max(1, len(tau) - 2))
     se_b = s / math.sqrt(max(((tau - tau.mean()) ** 2).sum(), 1e-300))
-    b, b_t = coef[1]
-    return b, se_b[0], b_t, se_b[1], tau, tilt, lev, s
+    return coef[0], coef[1], se_b, s
+
+
+def _slopes(design, sweep: Sweep):
+    """(K, sigma_K, across-axis slope, its standard error, tau, tilt, level, residual rad) over all frames."""
+    tau, tilt, lev = _frames(design, sweep)
+    _, b, se_b, s = _fit(tau, tilt)
+    return b[0], se_b[0], b[1], se_b[1], tau, tilt, lev, s
 
 
 def estimate(design, sweep: Sweep, *, k: float | None = None, EI: float | None = None,
-             contact_indentation_mm=None) -> LocateResult:
+             contact_indentation_mm=None, rigid_object: bool = True, mu: float | None = None) -> LocateResult:
     """Contact distance (mm), its 1-sigma, contact force (mN) and moment (N*mm) from one sweep.
 
     ``k`` (N*mm/rad) and ``EI`` (N*mm^2) default to the design's (`membrane_stiffness_Nmm_per_rad`,
     `bending_stiffness_Nmm2`) or come from a calibration. ``contact_indentation_mm(F_N)``: the
-    object's indentation under the rod when known (e.g. Hertz from its material), else the object is
-    taken as rigid; its secant compliance between the sweep's two contact forces is used. Refusals raise LocateError; the other outcomes are statuses without a number.
+    object's indentation under the rod when known (e.g. Hertz from its material); without it the object
+    is taken as rigid (``rigid_object`` True) or, ``rigid_object`` False, of unknown compliance: an object's
+    compliance only adds to the rod's, so the rigid-object distance is then an upper bound (status
+    "upper bound", the bound in details["upper_bound_mm"], no distance). ``mu``: the Coulomb
+    coefficient of the rod on the object; with it a contact that slides every cycle is located at the
+    friction cone's edge (whisker.sensing.contact_slip), without it such a sweep gets "slip".
+    Stick, shakedown (slid in the first loading, stuck after) and cyclic slip are told apart on
+    physical grounds (contact_slip's docstring). Refusals raise LocateError; the other outcomes are
+    statuses without a number.
     """
+    from whisker.sensing import contact_slip as CS
+
     k = membrane_stiffness_Nmm_per_rad(design)[0] if k is None else float(k)
     EI = bending_stiffness_Nmm2(design) if EI is None else float(EI)
-    b, se_b, b_t, se_bt, tau, tilt, lev, noise = _slopes(design, sweep)
+    tau, tilt, lev = _frames(design, sweep)
     L = float(design.whiskers.protrusion)
-    rest = np.abs(lev) < 1e-6
-    theta0 = np.median(tilt[rest], axis=0) if rest.any() else tilt.mean(axis=0) - b * tau.mean()
+    pre = CS.pre_sweep(lev)
+    steady = ~pre
+    _, _, _, s_steady = _fit(tau[steady], tilt[steady]) if steady.sum() > 2 else (0, 0, 0, np.full(2, np.inf))
+    ratchet = CS.ratchet(tilt, lev, s_steady)
+    # a stuck contact is path independent: the frames before the sweep belong to the same line; a
+    # contact that slid in the first loading left them behind (shakedown): fit the later cycles only
+    shaken = ratchet["sigmas"] > SLIP_SIGMAS
+    use = steady if shaken else np.ones(len(tau), bool)
+    _, bb, se, noise = _fit(tau[use], tilt[use])
+    b, b_t, se_b, se_bt = bb[0], bb[1], se[0], se[1]
+    theta0 = np.median(tilt[pre], axis=0) if pre.any() else tilt[lev == 0].mean(axis=0) if (lev == 0).any() \
+        else tilt.mean(axis=0) - bb * tau.mean()
     n = len(tau)
     details = {"compliance_rad_per_Nmm": float(b), "compliance_se": float(se_b), "across_axis": float(b_t),
                "noise_rad": noise.tolist(), "k_Nmm_per_rad": k, "EI_Nmm2": EI,
-               "sweep_torque_Nmm": float(np.ptp(tau)), "preload_rad": theta0.tolist()}
+               "sweep_torque_Nmm": float(np.ptp(tau)), "preload_rad": theta0.tolist(), "ratchet": ratchet,
+               "regime": "shakedown" if shaken else "stick"}
     free = 1.0 / k
     if b > 0.5 * free:
         return LocateResult("no contact", f"the whisker followed the sweep like a free one (compliance "
                             f"{b:.3g} rad/(N*mm), free {free:.3g}): nothing holds it", frames=n, details=details)
-    if b <= 0 or b < 2 * se_b:
+    across = abs(b_t) > SLIP_SIGMAS * se_bt and abs(b_t) > SLIP_FRACTION * abs(b)
+    if not across and (b <= 0 or b < 2 * se_b):
         return LocateResult("not observable", f"the sweep moved the base by {abs(b) * np.ptp(tau):.2g} rad, "
                             f"within the tracker's noise ({noise[0]:.2g} rad per frame x {n} frames): use a "
                             "longer or stronger sweep or a faster camera", frames=n, details=details)
-    if abs(b_t) > SLIP_SIGMAS * se_bt and abs(b_t) > SLIP_FRACTION * b:
-        return LocateResult("slip or soft contact", f"the base moved across the sweep ({b_t / b:.2f} of the "
-                            "in-axis motion): the contact slides along the object", frames=n, details=details)
+    moment = k * float(np.hypot(*theta0))          # |r f| at rest: the membrane holds the contact's moment
+    if across:
+        details["regime"] = "cyclic slip"
+        if contact_indentation_mm is not None or mu is None:
+            why = "a soft object's compliance model" if contact_indentation_mm is not None else "no friction coefficient (mu)"
+            return LocateResult("slip", f"the base moved across the sweep ({b_t / b:.2f} of the in-axis motion): the "
+                                f"contact slides along the object every cycle, and with {why} it is not located",
+                                frames=n, details=details)
+        return _cyclic_slip(CS, tau[steady], tilt[steady], lev[steady], noise, k, EI, mu, L, moment, rigid_object,
+                            n, details)
     K = 1.0 / b
     Kc = K - k
     span = float(np.ptp(tau))
-    moment = k * abs(theta0[0])
     Kc_min = 1.0 / (L / (3 * EI) + _secant(contact_indentation_mm, moment, span, L) / L ** 2)
     # a contact cannot lie beyond the rod: within 2 standard errors of the tip's stiffness the
     # constrained estimate is the tip; farther out the base is too compliant for any held contact
@@ -278,13 +325,42 @@ def estimate(design, sweep: Sweep, *, k: float | None = None, EI: float | None =
     dr_dKc = abs(min(near, key=lambda x: abs(x - r)) - r) / (Kc * 0.001) if near else float("inf")
     sigma_r = dr_dKc * se_b / b ** 2
     details["at_tip"] = bool(at_tip)
+    return _answer(r, sigma_r, moment, K, L, rigid_object or contact_indentation_mm is not None, n, details)
+
+
+def _answer(r, sigma_r, moment, K, L, located, n, details) -> LocateResult:
+    """The located contact, or "not observable" / "upper bound" without a distance."""
     if sigma_r > NOT_OBSERVABLE_FRACTION * L:
         return LocateResult("not observable", f"distance {r:.0f} mm would be uncertain by {sigma_r:.0f} mm "
                             f"(1 sigma): the sweep's response is too close to the noise", frames=n, details=details)
+    if not located:
+        details["upper_bound_mm"] = float(r + 2 * sigma_r)
+        return LocateResult("upper bound", f"contact at most {r + 2 * sigma_r:.1f} mm from the pivot (2 sigma; nearer "
+                            "if the object is soft: the sweep measures the rod's and the object's compliance "
+                            "together, and the object's is unknown)", stiffness_Nmm_per_rad=None if K is None else float(K), frames=n,
+                            details=details)
     force = moment / r
-    return LocateResult("ok", f"contact at {r:.1f} +- {sigma_r:.1f} mm from the pivot, {1e3 * force:.2f} mN",
-                        distance_mm=float(r), distance_sigma_mm=float(sigma_r), force_mN=1e3 * force,
-                        moment_Nmm=float(moment), stiffness_Nmm_per_rad=float(K), frames=n, details=details)
+    return LocateResult("ok", f"contact at {r:.1f} +- {sigma_r:.1f} mm from the pivot, {1e3 * force:.2f} mN "
+                        f"({details['regime']})", distance_mm=float(r), distance_sigma_mm=float(sigma_r),
+                        force_mN=1e3 * force, moment_Nmm=float(moment), stiffness_Nmm_per_rad=None if K is None else float(K), frames=n,
+                        details=details)
+
+
+def _cyclic_slip(CS, tau, tilt, lev, noise, k, EI, mu, L, moment, rigid_object, n, details) -> LocateResult:
+    """A contact that slides every cycle: located at the friction cone's edges (contact_slip)."""
+    out = CS.cone_edge_estimate(tau, tilt, lev, noise, k, EI, mu)
+    details["cone_edge"] = {key: v for key, v in out.items() if key != "ok"}
+    if not out["ok"]:
+        return LocateResult("slip", "the contact slides along the object every cycle, and " + out["reason"],
+                            frames=n, details=details)
+    r, sigma_r = float(out["r_mm"]), float(out["sigma_mm"])
+    if r > L:
+        if r - 2 * sigma_r > L:
+            return LocateResult("slip", f"the sliding contact's normal response puts it at {r:.0f} mm, beyond the "
+                                f"rod's {L:g} mm: the slide is not at the cone's edges", frames=n, details=details)
+        r = L
+    details["at_tip"] = r == L
+    return _answer(r, sigma_r, moment, None, L, rigid_object, n, details)
 
 
 def _secant(indentation, moment: float, span: float, r: float) -> float:

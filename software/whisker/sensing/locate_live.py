@@ -5,7 +5,8 @@
 square-wave sweep of whisker.sensing.locate (one level per camera frame), collects the tracked tilt of
 every frame of the sweep, switches the coil off and hands the sweep to `locate.estimate`: the contact
 distance (mm from the pivot) and force (mN), or a status without a number ("no contact", "not
-observable", "slip or soft contact"). A stream that ends with no whisker in contact gives "no contact".
+observable", "slip", "slip or soft contact"); with the rod's friction coefficient (``mu``) a contact
+that slides every cycle is located at its friction cone's edge (whisker.sensing.contact_slip). A stream that ends with no whisker in contact gives "no contact".
 The sweep is checked against the thermal limit before anything moves (`locate.check_sweep`).
 
 The level recorded for a frame is the one in force while the frame was exposed: the level set after
@@ -25,8 +26,9 @@ class LiveLocator:
 
     def __init__(self, design, *, whisker: int | None = None, amplitude: float | None = None,
                  duration_s: float | None = None, fps: float = 30.0, settle_frames: int = 5,
-                 start_C: float | None = None):
+                 start_C: float | None = None, mu: float | None = None):
         self.design = design
+        self.mu = mu                               # rod-object Coulomb coefficient (locate.estimate)
         self.n = design.whiskers.count
         if whisker is not None and not 0 <= whisker < self.n:
             raise L.LocateError(f"whisker {whisker} is not one of the design's 0-{self.n - 1}")
@@ -91,7 +93,7 @@ class LiveLocator:
         sweep = L.Sweep(np.array(self._t), np.array(self._lev), np.array(self._tilt, dtype=float),
                         np.array(self._ok, bool))
         try:
-            res = L.estimate(self.design, sweep)
+            res = L.estimate(self.design, sweep, mu=self.mu)
             row = res.row()
         except L.LocateError as err:
             row = {"status": "refused", "message": str(err), "distance_mm": None, "force_mN": None}

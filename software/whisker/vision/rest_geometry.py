@@ -11,7 +11,7 @@ centres, and reads:
 * ``marker_radius_px``: the median equivalent radius sqrt(area / pi) of the markers' thresholded
   blobs (what the tracker's windows and area checks use, and what the design's marker_diameter was
   calibrated as), and ``edge_radius_px``: the median radius of a blurred-disc fit to every marker
-  (whisker.vision.tracking's ``fit`` model, the half-contrast edge, on the raw frame). The authors' markers
+  (the ``fit`` tracker's model, whisker.vision.subpixel: the half-contrast edge, on the raw frame). The authors' markers
   have soft edges, so the edge radius is well below the blob radius there;
 * ``ring_radius_px`` and ``mm_per_px`` = whiskers.ring_radius / ring_radius_px, at the marker plane
   (undistorted pixels when a lens calibration is given).
@@ -65,6 +65,7 @@ def _circle(xy) -> tuple[np.ndarray, float]:
 
 def measure(design, image, calibration=None, mask=None) -> RestGeometry:
     """Measure the rest frame `image` (BGR uint8); see the module doc."""
+    from whisker.vision.subpixel import MarkerWindows
     from whisker.vision.tracking import Tracker
 
     n = design.whiskers.count
@@ -106,9 +107,10 @@ def measure(design, image, calibration=None, mask=None) -> RestGeometry:
     beta = design.tracking.image_up_deg + off
     # marker radius: disc fit on the raw frame at every marker
     img, m = trk._prepare(image)
-    trk.edge_r = trk.marker_r * 0.75   # start between the blob radius and a soft edge
-    trk._refine(img, m, pts_raw.copy(), iters=6)
-    rho, accepted = trk.last_fit
+    # the fit starts between the blob radius and a soft edge
+    fit = MarkerWindows(trk.marker_r, trk.marker_r * 0.75, trk.threshold)
+    fit.refine(img, m, pts_raw.copy(), iters=6)
+    rho, accepted = fit.last_fit
     if accepted.sum() < max(1, n // 2):
         raise RestGeometryError(f"rest frame: the disc fit was refused at {int((~accepted).sum())} of {n} markers; "
                                 "the marker radius cannot be measured (blur, markers not round?)")

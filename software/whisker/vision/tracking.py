@@ -1,7 +1,8 @@
 """Marker tracking: the paper's pipeline and faster, more exact ones, with identities that never swap.
 
-The detectors themselves live in `whisker.vision.markers`; this module holds the tracker that
-identifies, follows and refines them frame to frame.
+The detectors themselves live in `whisker.vision.markers` and the subpixel window centroid and disc
+fit of ``roi`` and ``fit`` in `whisker.vision.subpixel`; this module holds the tracker that identifies,
+follows and refines them frame to frame.
 
 Methods (all return one position per whisker; see docs/tracking.md for measured accuracy and speed):
 
@@ -43,6 +44,7 @@ import numpy as np
 
 from whisker.vision import geometry
 from whisker.vision.markers import DETECTORS, METHODS, REDNESS_THRESHOLD, Detections, assign, load_mask
+from whisker.vision.subpixel import MarkerWindows
 
 class CalibrationError(ValueError):
     """The rest frames do not show every marker often enough; one line naming the whiskers."""
@@ -128,7 +130,7 @@ class Tracker:
         self.marker_r = design.coil.marker_diameter / 2.0 / k if marker_radius_px is None else float(marker_radius_px)
         if edge_radius_px is not None and not (math.isfinite(edge_radius_px) and 0.5 <= edge_radius_px <= 100.0):
             raise ValueError(f"edge_radius_px must be 0.5..100 px, got {edge_radius_px}")
-        self.edge_r = self.marker_r if edge_radius_px is None else float(edge_radius_px)   # disc fit's start
+        edge_r = self.marker_r if edge_radius_px is None else float(edge_radius_px)   # disc fit's start
         a0 = math.pi * self.marker_r ** 2
         self.area_range = (0.25 * a0, 4.0 * a0)
         # predicted rest positions in tracking coordinates (distorted unless frames are remapped)
@@ -142,17 +144,10 @@ class Tracker:
         else:
             self.spacing = float("inf")
         self.gate = min(design.tracking.marker_search_px, 0.45 * self.spacing)
-        self.half = int(math.ceil(self.marker_r + 5))  # ROI window radius, px
-        self._offs = np.arange(-self.half, self.half + 1, dtype=np.float32)
-        rr = np.hypot(self._offs[:, None], self._offs[None, :])
-        self._disc = (rr <= self.half + 0.5).astype(np.float32)
-        self._rim_b = (rr > self.half - 1.5) & (rr <= self.half + 0.5)
-        self._rim = self._rim_b.astype(np.float32)
+        self.windows = MarkerWindows(self.marker_r, edge_r, self.threshold)   # the roi / fit methods' windows
         self._merge_d2 = (2 * self.marker_r) ** 2
         self._diag = np.eye(self.n, dtype=bool)
         self._area0 = self._design_area()
-        self._fit_geom = None
-        self.last_fit = (np.zeros(0), np.zeros(0, bool))
         self.baseline: _Baseline | None = None
         self._last = np.full((self.n, 2), np.nan)
 
@@ -322,134 +317,6 @@ class Tracker:
                 ref[miss] = self.baseline.track_xy[miss]
         return ref
 
-    def _windows(self, img, mask, centre):
-        """Weighted centroid offsets of square windows centred on integer pixels `centre` (S, 2)."""
-        hw = self.half
-        offs = self._offs
-        # slicing is cheaper than fancy indexing for a handful of windows
-        win = np.stack([img[y - hw:y + hw + 1, x - hw:x + hw + 1] for x, y in centre.tolist()])
-        win = win.astype(np.int16)
-        red = 2 * win[..., 2] - win[..., 0] - win[..., 1]   # 2 x (R - (G + B) / 2): less noisy than R - max(G, B)
-        wgt = np.maximum(red - 2 * self.threshold, 0).astype(np.float32)
-        wgt *= self._disc  # a round window: the red wires leaving the coil block stay outside
-        if mask is not None:
-            wgt *= np.stack([mask[y - hw:y + hw + 1, x - hw:x + hw + 1] for x, y in centre.tolist()]) > 0
-        col = wgt.sum(axis=1)   # (S, W): weight per x
-        row = wgt.sum(axis=2)   # (S, W): weight per y
-        m = col.sum(axis=1)
-        safe = np.where(m > 0, m, 1.0)
-        rim = (wgt * self._rim).sum(axis=(1, 2))
-        return (col @ offs) / safe, (row @ offs) / safe, m, rim / safe
-
-    def _refine(self, img, mask, xy, iters: int = 2):
-        """Least-squares fit of a blurred disc to each marker's redness, started at `xy` (M, 2).
-
-        Model per window: b + a * Phi((rho - |p - p0|) / s) (Phi = standard normal CDF: a disc of
-        radius rho with a Gaussian-blurred edge of width s, on a flat background b), parameters
-        p0 = (x0, y0), rho, a, b, s, solved by `iters` Gauss-Newton steps (all markers at once).
-        Unlike a centroid it weighs each pixel by how much it says about the edge, so noise in the
-        flat interior and background does not move it. A marker whose fit fails, moves more than
-        1 px or ends with an implausible radius/contrast keeps its starting (centroid) position.
-        """
-        from scipy.special import ndtr
-
-        h, w = img.shape[:2]
-        hw = self.half
-        c = np.rint(xy).astype(int)
-        ok = (c[:, 0] >= hw) & (c[:, 1] >= hw) & (c[:, 0] < w - hw) & (c[:, 1] < h - hw)
-        if not ok.any():
-            self.last_fit = (np.full(len(xy), np.nan), np.zeros(len(xy), bool))
-            return xy
-        disc = self._disc > 0
-        if self._fit_geom is None:
-            rr = np.hypot(self._offs[:, None], self._offs[None, :])[disc]
-            xs = np.broadcast_to(self._offs[None, :], disc.shape)[disc].astype(np.float64)
-            ys = np.broadcast_to(self._offs[:, None], disc.shape)[disc].astype(np.float64)
-            self._fit_geom = (xs, ys, rr > hw - 1.5, rr < max(self.marker_r - 2.0, 1.0))
-        xs, ys, rim, core = self._fit_geom
-        cs = c[ok]
-        win = np.stack([img[y - hw:y + hw + 1, x - hw:x + hw + 1][disc] for x, y in cs.tolist()]).astype(np.float64)
-        R = win[..., 2] - 0.5 * (win[..., 0] + win[..., 1])
-        if mask is not None:
-            inside = np.stack([mask[y - hw:y + hw + 1, x - hw:x + hw + 1][disc] for x, y in cs.tolist()]) > 0
-            full = inside.all(axis=1)  # a window the mask cuts does not fit the model: keep the centroid
-        else:
-            full = np.ones(len(cs), bool)
-        b = R[:, rim].mean(axis=1)
-        a = R[:, core].mean(axis=1) - b
-        x0 = xy[ok, 0] - cs[:, 0]
-        y0 = xy[ok, 1] - cs[:, 1]
-        rho = np.full(len(cs), self.edge_r)
-        s = np.full(len(cs), 0.9)
-        J = np.empty(R.shape + (6,))
-        try:
-            for _ in range(iters):
-                dx = xs - x0[:, None]
-                dy = ys - y0[:, None]
-                d = np.sqrt(dx * dx + dy * dy) + 1e-9
-                u = (rho[:, None] - d) / s[:, None]
-                Phi = ndtr(u)
-                g = (a / s)[:, None] * np.exp(-0.5 * u * u) * 0.3989422804014327
-                res = R - (b[:, None] + a[:, None] * Phi)
-                J[..., 0] = g * dx / d
-                J[..., 1] = g * dy / d
-                J[..., 2] = g
-                J[..., 3] = Phi
-                J[..., 4] = 1.0
-                J[..., 5] = -g * u
-                Jt = J.transpose(0, 2, 1)
-                step = np.linalg.solve(Jt @ J, Jt @ res[..., None])[..., 0]
-                x0, y0 = x0 + step[:, 0], y0 + step[:, 1]
-                rho, a, b = rho + step[:, 2], a + step[:, 3], b + step[:, 4]
-                s = np.clip(s + step[:, 5], 0.3, 5.0)
-        except np.linalg.LinAlgError:
-            self.last_fit = (np.full(len(xy), np.nan), np.zeros(len(xy), bool))
-            return xy
-        new = np.stack([cs[:, 0] + x0, cs[:, 1] + y0], axis=1)
-        good = (full & np.all(np.isfinite(new), axis=1) & (np.hypot(*(new - xy[ok]).T) < 1.0)
-                & (rho > 0.5 * self.marker_r) & (rho < 2.0 * self.marker_r) & (a > 0))
-        out = xy.copy()
-        sel = np.flatnonzero(ok)[good]
-        out[sel] = new[good]
-        radius = np.full(len(xy), np.nan)
-        radius[sel] = rho[good]
-        accepted = np.zeros(len(xy), bool)
-        accepted[sel] = True
-        self.last_fit = (radius, accepted)   # fitted disc radius (px) and which markers took the fit
-        return out
-
-    def _roi(self, img, mask, ref):
-        """Windowed weighted centroids around `ref` (N,2). Returns positions, ok flags, masses."""
-        h, w = img.shape[:2]
-        hw = self.half
-        centre = np.rint(ref).astype(int)  # callers pass finite refs
-        inside = (centre[:, 0] >= hw) & (centre[:, 1] >= hw) & (centre[:, 0] < w - hw) & (centre[:, 1] < h - hw)
-        pos = np.full((self.n, 2), np.nan)
-        mass = np.zeros(self.n)
-        rim = np.ones(self.n)
-        sel = np.flatnonzero(inside)
-        for _ in range(2):  # a second pass re-centres the windows of markers near the window's edge
-            if sel.size == 0:
-                break
-            ex, ey, m, r = self._windows(img, mask, centre[sel])
-            pos[sel, 0] = centre[sel, 0] + ex
-            pos[sel, 1] = centre[sel, 1] + ey
-            mass[sel] = m
-            rim[sel] = r
-            # Re-centre only if the marker may be cut by the window: weight on the rim, or a shift
-            # of more than 1.5 px (the window has 5 px of margin around the marker). Otherwise the
-            # background weight is zero, the whole marker is inside and the centroid does not
-            # depend on where the window sits.
-            moved = (m > 0) & ((r > 1e-3) | (ex * ex + ey * ey > 2.25))
-            if not moved.any():
-                break
-            new = np.rint(pos[sel[moved]]).astype(int)
-            fits = (new[:, 0] >= hw) & (new[:, 1] >= hw) & (new[:, 0] < w - hw) & (new[:, 1] < h - hw)
-            sel = sel[moved][fits]
-            centre[sel] = new[fits]
-        ok = inside & (mass > 0) & (rim < 0.02)
-        return pos, ok, mass
-
     def track(self, image) -> TrackResult:
         """Positions, validity and displacements of every marker in one frame. Never raises on bad frames."""
         msg = self.check_frame(image)
@@ -462,7 +329,7 @@ class Tracker:
         status = ["lost"] * self.n
         ndet = 0
         if self.method in ("roi", "fit") and not np.isnan(ref).any():
-            rpos, rok, mass = self._roi(img, mask, ref)
+            rpos, rok, mass = self.windows.roi(img, mask, ref)
             # a marker of normal size has mass ~ area * (contrast - threshold); compare to the others
             good = sorted(mass[rok].tolist())
             if len(good) >= 2:
@@ -506,8 +373,8 @@ class Tracker:
         valid = np.array([s == "ok" for s in status]) & ~np.isnan(pos).any(axis=1)
         refused = 0
         if self.method == "fit" and valid.any():
-            pos[valid] = self._refine(img, mask, pos[valid])
-            refused = int(np.sum(~self.last_fit[1]))
+            pos[valid] = self.windows.refine(img, mask, pos[valid])
+            refused = int(np.sum(~self.windows.last_fit[1]))
         self._last[valid] = pos[valid]
         out = self.to_output(pos)
         out[~valid] = np.nan

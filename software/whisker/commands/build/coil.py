@@ -225,6 +225,7 @@ def thermal(design, volts, duty, seconds, step):
     import numpy as np
 
     from whisker.coil import thermal_network as tn
+    from whisker.coil import thermal_parts as tp
 
     v = design.actuation.voltage if volts is None else volts
     if not (math.isfinite(v) and v >= 0):
@@ -243,7 +244,7 @@ def thermal(design, volts, duty, seconds, step):
     click.echo(f"{v:g} V, duty {duty:g} on every coil: steady winding {float(net.winding_C(ss)[0]):.0f} C; "
                f"first limit {first if t_first != 'never' else net.limit_label} after {t_first}; "
                f"safe duty {tn.safe_duty(net, v) * 100:.1f} %")
-    names = list(tn.PER_WHISKER) + list(tn.SHARED)
+    names = list(tp.PER_WHISKER) + list(tp.SHARED)
     click.echo("t_s    " + "  ".join(f"{n[:8]:>8s}" for n in names) + "   (C)")
     ts, xs = tn.run_at_volts(net, v, max(t_end, step), duty=duty, dt_s=min(step, 0.05))
     for k in range(int(round(t_end / step)) + 1):
@@ -300,10 +301,11 @@ def driver(design, volts, amps, series):
 def tolerance(design, sensors, drive_mode, amps, sobol_base, tolerances, seed, out):
     """Build scatter: tilt at the grasp level, P(pull-in), build yield (%), Sobol' indices. docs/coil.md."""
     from whisker.coil import tolerance as tol
+    from whisker.coil.tolerance_table import load_tolerances
     from whisker.files import atomic_write_json
 
     drive = tol.Drive(drive_mode, amps)
-    tol.load_tolerances(tolerances)          # refuse a bad table before any work
+    load_tolerances(tolerances)          # refuse a bad table before any work
     r = tol.study(design, sensors, drive, seed=seed, tolerances=tolerances)
     rep = r.to_dict()
     p = r.tilt_percentiles_deg

@@ -30,9 +30,17 @@ from whisker.cliutil import design_options, fail
 @click.option("--start-temperature", "start_C", type=click.FloatRange(-50, 200), default=None,
               help="Coil temperature before the sweep, C (default: the design's ambient); the sweep is refused "
                    "if it would pass the thermal guard's cut-off.")
+@click.option("--unknown-compliance", is_flag=True, default=False,
+              help="The object may be soft and its compliance is unknown: report an upper bound on the distance "
+                   "(mm; a soft object only looks farther) instead of a distance.")
+@click.option("--mu", type=click.FloatRange(0, 10), default=None,
+              help="Opt-in: Coulomb coefficient of the rod on the object (the simulator's contact.rod_friction is "
+                   "0.3), to locate a contact that slides every cycle at its friction cone's edge; needs the absolute "
+                   "tilt to ~1e-5 rad (docs/locate.md). Without it such a contact gets \"slip\".")
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Folder for locate.md (table), locate.csv and locate.png (tilt vs commanded torque).")
-def cli(design, session, whisker, simulate_mm, material, approach_deg, amplitude, duration_s, fps, start_C, out):
+def cli(design, session, whisker, simulate_mm, material, approach_deg, amplitude, duration_s, fps, start_C,
+        unknown_compliance, mu, out):
     """Estimate the contact distance along the rod (mm from the pivot) and the contact force (mN) from a
     sweep of the coil's torque (N*mm) against the tracked base tilt (rad): Kaneko's active antenna,
     K = k + 3 EI / r. SESSION is a folder written by `whisker record` whose actuation swept the whisker
@@ -62,9 +70,7 @@ def cli(design, session, whisker, simulate_mm, material, approach_deg, amplitude
                 fail(f"locate: --simulate {simulate_mm:g} mm is beyond the rod's {design.whiskers.protrusion:g} mm")
             case = S.Case(simulate_mm, material, approach_deg)
             t, lev = L.sweep_levels(amplitude, duration_s, fps)
-            tilt = np.zeros((len(t), 2))
-            for _ in range(3):
-                tilt = S.response(design, case, L.coil_torque_Nmm(design, lev, tilt[:, 0]))
+            tilt = S.sweep_tilt(design, case, lev)
             with click.progressbar(length=len(t), label="rendering and tracking", file=None) as bar:
                 last = [0]
 
@@ -77,7 +83,7 @@ def cli(design, session, whisker, simulate_mm, material, approach_deg, amplitude
         else:
             sweep, heat = _from_session(design, session, whisker), None
             source = f"{session}, whisker {whisker}"
-        res = L.estimate(design, sweep)
+        res = L.estimate(design, sweep, rigid_object=not unknown_compliance, mu=mu)
     except L.LocateError as err:
         fail(f"locate refused: {err}")
     row = {"source": source, **res.row()}
@@ -93,7 +99,8 @@ def _from_session(design, folder, whisker):
     """Sweep of one whisker from a `whisker record` session: tracked tips -> tilt, applied levels per frame."""
     import numpy as np
 
-    from whisker.data.recording import RecordingError, load_session
+    from whisker.data.recording import RecordingError
+    from whisker.data.session import load_session
     from whisker.sensing import locate as L
 
     try:

@@ -48,7 +48,8 @@ def cli(design, tracks, method, window, out_csv, as_json, quiet):
 
     from whisker.cliutil import check_out_path
     from whisker.files import atomic_write_text
-    from whisker.sensing.states import STATE_NAMES, StateInputError, StatesUndecided, label_recording
+    from whisker.sensing.states import STATE_NAMES, StateInputError
+    from whisker.sensing.states_offline import StatesUndecided, label_recording
     from whisker.vision.trackfile import TracksError, read_tracks
 
     if out_csv:

@@ -92,6 +92,15 @@ class Case:
 def response(design, case: Case, tau_Nmm: np.ndarray, k: float | None = None, EI: float | None = None
              ) -> np.ndarray:
     """(F, 2) exact [radial, tangential] tilt (rad) for the torque sequence (N*mm), quasi-static."""
+    tau = np.asarray(tau_Nmm, dtype=float)
+    return _respond(design, case, len(tau), lambda i, theta_r: tau[i], k, EI)
+
+
+def _respond(design, case: Case, frames: int, torque_at, k=None, EI=None, tol: float = 0.0,
+             max_iter: int = 1) -> np.ndarray:
+    """The frame-by-frame contact model (module docstring); torque_at(i, radial tilt) gives frame i's
+    torque (N*mm). With ``max_iter`` > 1 each frame's torque and tilt are iterated to their fixed point
+    (to ``tol`` rad) before the contact's stick position is carried to the next frame."""
     k = L.membrane_stiffness_Nmm_per_rad(design)[0] if k is None else k
     EI = L.bending_stiffness_Nmm2(design) if EI is None else EI
     mu = rod_friction() if case.mu is None else case.mu
@@ -105,9 +114,8 @@ def response(design, case: Case, tau_Nmm: np.ndarray, k: float | None = None, EI
     delta = (lambda F: 0.0) if hz is None else hz[0]
     N0 = k * math.radians(case.preload_deg) / r
     g = N0 * Cb + delta(N0)
-    s = 0.0                                              # tangential stick position of the contact point
-    out = np.zeros((len(tau_Nmm), 2))
-    for i, tau in enumerate(np.asarray(tau_Nmm, dtype=float)):
+
+    def step(tau, s):
         rhs = g - r * tau * float(e @ n) / k             # N Cb + delta(N) = rhs, monotone in N
         if rhs <= 0:
             N = 0.0
@@ -125,8 +133,41 @@ def response(design, case: Case, tau_Nmm: np.ndarray, k: float | None = None, EI
             T = math.copysign(mu * N, T)
             s = free_t + T * Cb
         f = N * n + T * t_hat
-        out[i] = (tau * e + r * f) / k
+        return (tau * e + r * f) / k, s
+
+    s = 0.0                                              # tangential stick position of the contact point
+    out = np.zeros((frames, 2))
+    theta_r = 0.0
+    for i in range(frames):
+        for it in range(max_iter):
+            theta, s_new = step(float(torque_at(i, theta_r)), s)
+            done = abs(theta[0] - theta_r) < tol
+            theta_r = float(theta[0])
+            if done:
+                break
+        else:
+            if max_iter > 1:
+                raise RuntimeError(f"{case}: coil torque and tilt have no equilibrium near frame {i}'s tilt ({max_iter} "
+                                   "iterations): the coil's pull grows with the tilt faster than the sliding contact "
+                                   "and the membrane resist, the whisker would snap to its stop (not modelled)")
+        out[i], s = theta, s_new
     return out
+
+
+#: rad, each frame's coil-torque / tilt fixed point in `sweep_tilt` is iterated to this
+SWEEP_TOL_RAD = 1e-12
+
+
+def sweep_tilt(design, case: Case, levels: np.ndarray, max_iter: int = 50) -> np.ndarray:
+    """(F, 2) exact tilt (rad) for a sequence of coil levels: the coil's torque depends on the tilt (the
+    magnet-coil gap) and the tilt on the torque, so each frame is iterated to their fixed point (to
+    SWEEP_TOL_RAD) before the contact's slide state goes on to the next frame (the contact is path
+    dependent: iterating whole sequences instead can cycle between slide states). A sliding contact
+    moves the base by up to ~0.1 rad, where the torque changes by more than the rod's bending signal."""
+    levels = np.asarray(levels, dtype=float)
+    return _respond(design, case, len(levels),
+                    lambda i, theta_r: L.coil_torque_Nmm(design, levels[i:i + 1], np.array([theta_r]))[0],
+                    tol=SWEEP_TOL_RAD, max_iter=max_iter)
 
 
 #: the tracker method: the sub-pixel fit (docs/tracking.md: ~30 % less displacement noise than roi)
@@ -138,12 +179,18 @@ def tracker_noise_bank(design, frames: int = 200, whisker: int = 0, noise_sigma:
     """(frames, 2) tracked tilt error (rad, [radial, tangential]) of one whisker on rendered rest frames
     through the real tracker (the scene camera's default noise and blur)."""
     zero = np.zeros((frames, 2))
-    return render_and_track(design, whisker, zero, noise_sigma=noise_sigma, blur_px=blur_px, seed=seed)
+    return render_and_track(design, whisker, zero, noise_sigma=noise_sigma, blur_px=blur_px, seed=seed, zero_frames=0)
 
 
 def render_and_track(design, whisker: int, tilt_rad: np.ndarray, noise_sigma: float = 2.0, blur_px: float = 0.8,
-                     seed: int = 0, progress=None, method: str = METHOD) -> np.ndarray:
-    """Render one frame per tilt (the other whiskers at rest), track it, return the tracked tilt (F, 2)."""
+                     seed: int = 0, progress=None, method: str = METHOD, zero_frames: int = 30) -> np.ndarray:
+    """Render one frame per tilt (the other whiskers at rest), track it, return the tracked tilt (F, 2).
+
+    ``zero_frames`` rest frames are tracked first the same way and their mean tilt is the zero: the
+    free whisker's rest recorded by the tracking method itself before the contact. The tracker's rest
+    calibration locates markers with its detector and the frames with the ``fit`` method, which differ
+    by ~1e-4 rad; the stick estimate does not see a constant offset, but the cone-edge estimate of a
+    sliding contact (whisker.sensing.contact_slip) reads the absolute tilt."""
     from whisker.coil.kinematics import marker_positions_mm
     from whisker.vision.render import marker_pixels, render_frame
     from whisker.vision.tracking import Tracker
@@ -153,17 +200,24 @@ def render_and_track(design, whisker: int, tilt_rad: np.ndarray, noise_sigma: fl
     trk = Tracker(design, method=method)
     trk.calibrate([render_frame(design, rest, seed=seed * 1000 + 999_000 + j, noise_sigma=noise_sigma,
                                 blur_px=blur_px) for j in range(5)])
-    out = np.full((len(tilt_rad), 2), np.nan)
-    for f, th in enumerate(np.asarray(tilt_rad, dtype=float)):
+    def tracked(th, frame_seed):
         theta = np.zeros((n, 2))
         theta[whisker] = th
         img = render_frame(design, marker_pixels(design, marker_positions_mm(design, theta)),
-                           seed=seed * 1000 + f, noise_sigma=noise_sigma, blur_px=blur_px)
+                           seed=frame_seed, noise_sigma=noise_sigma, blur_px=blur_px)
         res = trk.track(img)
-        geo = trk.deflection(res)
-        if res.valid[whisker]:
-            tip = np.array([[geo.tip_x_mm[whisker], geo.tip_y_mm[whisker]]])
-            out[f] = L.tilt_from_tip_mm(design, whisker, tip)[0]
+        if not res.valid[whisker]:
+            return np.full(2, np.nan)
+        geo = trk.deflection(res, model="exact")          # the camera's exact ray model: absolute tilt
+        return L.tilt_from_tip_mm(design, whisker, np.array([[geo.tip_x_mm[whisker], geo.tip_y_mm[whisker]]]))[0]
+
+    zero = np.zeros(2)
+    if zero_frames:
+        z = np.array([tracked(np.zeros(2), seed * 1000 + 998_000 + j) for j in range(zero_frames)])
+        zero = np.nanmean(z, axis=0) if np.isfinite(z).any() else zero
+    out = np.full((len(tilt_rad), 2), np.nan)
+    for f, th in enumerate(np.asarray(tilt_rad, dtype=float)):
+        out[f] = tracked(th, seed * 1000 + f) - zero
         if progress and f % 20 == 0:
             progress(f / len(tilt_rad))
     return out
@@ -171,15 +225,15 @@ def render_and_track(design, whisker: int, tilt_rad: np.ndarray, noise_sigma: fl
 
 def run_case(design, case: Case, *, amplitude: float = L.DEFAULT_AMPLITUDE, duration_s: float = L.DEFAULT_DURATION_S,
              fps: float = 30.0, period_s: float = L.DEFAULT_PERIOD_S, noise: np.ndarray | None = None,
-             frames: bool = False, rng=None, seed: int = 0, sweep: bool = True, known_compliance: bool = False):
+             frames: bool = False, rng=None, seed: int = 0, sweep: bool = True, known_compliance: bool = False,
+             rigid_object: bool = True, mu: float | None = None):
     """One simulated sweep -> whisker.sensing.locate.estimate. ``noise``: a tracker-error bank resampled
     onto the frames; ``frames=True``: render and track every frame instead. ``sweep=False``: the
-    same frames with the coil off (the ablation). Returns (LocateResult, truth dict)."""
+    same frames with the coil off (the ablation). ``rigid_object`` False: the estimator is told the
+    object's compliance is unknown; ``mu``: the friction coefficient the estimator is given to locate a
+    contact that slides every cycle at its cone's edge (opt-in; None: such a contact gets "slip"). Returns (LocateResult, truth dict)."""
     t, lev = L.sweep_levels(amplitude if sweep else 0.0, duration_s, fps, period_s)
-    tilt = np.zeros((len(t), 2))
-    for _ in range(3):                                   # torque depends on the tilt (the coil's gap)
-        tau = L.coil_torque_Nmm(design, lev, tilt[:, 0])
-        tilt = response(design, case, tau)
+    tilt = sweep_tilt(design, case, lev)
     if frames:
         obs = render_and_track(design, 0, tilt, seed=seed)
     else:
@@ -189,7 +243,8 @@ def run_case(design, case: Case, *, amplitude: float = L.DEFAULT_AMPLITUDE, dura
     if known_compliance and case.material is not None:
         comp = hertz_compliance(design, case.material)[0]
     try:
-        res = L.estimate(design, L.Sweep(t, lev, obs), contact_indentation_mm=comp)
+        res = L.estimate(design, L.Sweep(t, lev, obs), contact_indentation_mm=comp, rigid_object=rigid_object,
+                         mu=mu)
     except L.LocateError as err:
         res = L.LocateResult("refused", str(err), frames=len(t))
     k = L.membrane_stiffness_Nmm_per_rad(design)[0]
