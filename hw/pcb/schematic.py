@@ -21,11 +21,12 @@ SKiDL's ``net.drive = POWER`` becomes a KiCad ``PWR_FLAG`` symbol, and ``kicad-c
 find 0 errors (:func:`kicad_erc`).
 
 Reproducible: schematizer seeds every UUID from names and coordinates; the only volatile text, the
-title-block date in the ``.kicad_sch`` and the plot date in each SVG's ``<title>``, is dropped in
+title-block date in the ``.kicad_sch``, the plot date in each SVG's ``<title>`` and the PDF's
+creation date, is dropped or fixed in
 :func:`draw`, and kicad-cli runs with a private configuration folder (:func:`_run`). Files (into
 ``schematic/`` of the HAT folder): ``hat.kicad_sch`` (root sheet, opens in KiCad's schematic editor),
-``hat_<block>.kicad_sch`` per block, and ``hat-<block>.svg`` per block sheet, cut to its drawing
-(:func:`crop_svg`).
+``hat_<block>.kicad_sch`` per block, ``hat-<block>.svg`` per block sheet, cut to its drawing
+(:func:`crop_svg`), and ``hat.pdf`` (every sheet with its title block, for print).
 """
 
 from __future__ import annotations
@@ -62,12 +63,15 @@ SYMBOLS = {
 #: parts drawn with another symbol than their kind's: the polarised bulk capacitor, the screw terminal
 SYMBOL_BY_REF = {"C100": ("Device", "C_Polarized"), "J2": ("Connector", "Screw_Terminal_01x02")}
 #: block -> sheet title, in sheet order
-BLOCK_TITLES = {"pi": "Raspberry Pi header, HAT ID EEPROM, LED strip", "supply": "Supply: fuse, reverse polarity, bulk",
-                "monitors": "Coil current monitors (INA3221)", "expander": "PWM expander (PCA9685)"}
+BLOCK_TITLES = {"pi": "Raspberry Pi header, HAT ID EEPROM, LED strip connector",
+                "supply": "supply terminal, fuse, reverse-polarity P-FET, bulk capacitor",
+                "monitors": "coil current monitors (INA3221)", "expander": "PWM expanders (PCA9685)"}
 TOP = "hat"
 #: the date schematizer writes into the title block, and kicad-cli into each SVG's <title>
 _SCH_DATE = re.compile(r'\(date "[^"]*"\)')
 _SVG_DATE = re.compile(r"(<title>SVG Image created as \S+) date [0-9/: ]+(</title>)")
+_PDF_DATE = re.compile(rb"(/CreationDate \(D:)\d{14}")
+FIXED_PDF_DATE = b"20000101000000"
 
 
 class SchematicFailed(BoardFailed):
@@ -166,16 +170,25 @@ def draw(hat: Hat, out: Path) -> dict:
         raise SchematicFailed(f"schematizer could not draw the HAT: {err}") from None
     sheets = sorted(out.glob("*.kicad_sch"))
     for sch in sheets:
-        sch.write_text(_SCH_DATE.sub('(date "")', sch.read_text()))
+        text = _SCH_DATE.sub('(date "")', sch.read_text())
+        block = sch.stem[len(TOP) + 1:]
+        if block:   # the title block names what the sheet holds
+            text = text.replace(f'(title "{title} - {block}")', f'(title "{title}: {block_title(block)}")', 1)
+        sch.write_text(text)
     _cli("sch", "export", "svg", "--exclude-drawing-sheet", "-o", str(out), str(out / f"{TOP}.kicad_sch"))
     (out / f"{TOP}.svg").unlink(missing_ok=True)   # the root sheet: only the block boxes, nothing to read
     for svg in out.glob("*.svg"):
         svg.write_text(crop_svg(_SVG_DATE.sub(r"\1\2", svg.read_text())))
+    # all sheets with their title blocks in one PDF, for print; its one volatile field is the creation
+    # date, set to a fixed one of the same length (the cross-reference offsets stay valid)
+    pdf = out / f"{TOP}.pdf"
+    _cli("sch", "export", "pdf", "-o", str(pdf), str(out / f"{TOP}.kicad_sch"))
+    pdf.write_bytes(_PDF_DATE.sub(lambda m: m.group(1) + FIXED_PDF_DATE, pdf.read_bytes()))
     check_connectivity(hat, out / f"{TOP}.kicad_sch")
     erc = kicad_erc(out / f"{TOP}.kicad_sch")
     if erc["errors"]:
         raise SchematicFailed(f"kicad-cli sch erc: {erc['errors']} error(s) {erc['error_types']}: {erc['first_error']}")
-    return {"files": sorted(p.name for p in out.iterdir() if p.suffix in (".kicad_sch", ".svg")),
+    return {"files": sorted(p.name for p in out.iterdir() if p.suffix in (".kicad_sch", ".svg", ".pdf")),
             "kicad_erc": {k: erc[k] for k in ("errors", "warnings", "warning_types")}}
 
 
