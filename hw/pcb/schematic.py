@@ -8,8 +8,9 @@ export svg`` then plots them. Three things make that work for whisker.pcb.hat:
   with the KiCad 9 library symbol of the same pinout (:data:`SYMBOLS`; tests/test_hat.py checks the
   DRV8833/INA3221/PCA9685 pin numbers against those symbols) and wired pin number by pin number;
 - schematizer 0.2.0's placed-and-routed mode did not finish the flat ~80-part HAT in 15 minutes (2
-  cores), and on the block sheets below it raises RoutingFailure after 2 minutes, so its labels mode
-  draws it: every pin gets a short stub ending in a power symbol, a net label
+  cores), on the block sheets below it raises RoutingFailure after 2 minutes, and with ``auto_stub``
+  it finishes (14 s, same connectivity) but overlaps parts (coil connectors over the DRV8833's
+  pins), so its labels mode draws it: every pin gets a short stub ending in a power symbol, a net label
   (net on one sheet) or a global label (net on several), and KiCad joins pins by label name.
   Connectivity is exact by construction, and it is checked (:func:`check_connectivity`): the
   netlist KiCad exports from the drawing must join exactly the pins the SKiDL circuit joins;
