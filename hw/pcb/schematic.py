@@ -128,7 +128,7 @@ def schematic_circuit(hat: Hat):
                               circuit=ckt):
                     flag = sk.Part("power", "PWR_FLAG", tool=sk.KICAD9, circuit=ckt, ref=f"#FLG{len(flags) + 1:02d}")
                 flags.append(flag)
-                net += flag[1]
+                net += _pin(flag, 1)
         for pin in hat.circuit.NC.pins:
             ckt.NC += _pin(new[pin.part.ref], pin.num)
     return ckt
@@ -154,9 +154,9 @@ def _block_key(block: str):
 
 
 def draw(hat: Hat, out: Path) -> dict:
-    """Write the schematic sheets (.kicad_sch) and their SVG plots into `out`; returns {"files": names
-    relative to `out`, sorted; "kicad_erc": counts}. SchematicFailed when a step fails, the drawing's connectivity differs
-    from the circuit's, or KiCad's ERC finds an error in it."""
+    """Write the schematic sheets (.kicad_sch), their SVG plots and the PDF into `out`; returns
+    {"files": names relative to `out`, sorted; "kicad_erc": counts}. SchematicFailed when a step fails,
+    the drawing's connectivity differs from the circuit's, or KiCad's ERC finds an error in it."""
     import schematizer
     from skidl.schematic_netlist import build_generic_netlist
 
