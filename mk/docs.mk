@@ -18,7 +18,7 @@ DOCS_SWEEP_RADII ?= 4,10,16,22
 STAMP = $(BIN)/python -m whisker.data.provenance stamp
 # every benchmark, each its own group docs-bench-NAME (the list is checked against benchmarks/bench_*.py
 # by tests/test_docs_current.py); bench_states runs in docs-states
-DOCS_BENCH ?= actuation bom cad classify coil compliant driver explore grip locate locate_noise magnetics membrane \
+DOCS_BENCH ?= actuation bom cad classify coil compliant driver explore grip hat locate locate_noise magnetics membrane \
 	print ros sim thermal tolerance tracking
 DOCS_GROUPS = docs-states docs-closedloop docs-sim-grasp docs-sim-time docs-stiffness docs-lens docs-sim-figures docs-tracking \
 	docs-parts docs-assembly docs-guide docs-ros-frames docs-explore docs-sweep docs-fuzz $(addprefix docs-bench-,$(DOCS_BENCH))
@@ -34,6 +34,7 @@ DOCS_BENCH_FILES_compliant = sim_compliant.md sim_compliant.csv
 DOCS_BENCH_FILES_driver = driver.md driver.csv
 DOCS_BENCH_FILES_explore = explore.md
 DOCS_BENCH_FILES_grip = sim_grip.md
+DOCS_BENCH_FILES_hat = hat.md hat.csv
 DOCS_BENCH_FILES_locate = locate.md locate.csv locate_tradeoff.csv locate.png
 DOCS_BENCH_FILES_locate_noise = locate_noise.md locate_noise.csv locate_noise.png
 DOCS_BENCH_FILES_magnetics = magnetics.md magnetics.csv magnetics.png

@@ -9,12 +9,13 @@ item) raises :class:`BoardFailed`; the previous files stay.
 Files: ``hat.net`` (SKiDL netlist), ``hat_erc.txt``, ``placement.json`` (the spec pcbnew builds from),
 ``hat.kicad_pcb`` (routed), ``drc.json`` (counts), ``gerbers/`` (Gerbers + Excellon, date lines
 dropped), ``bom_jlcpcb.csv``, ``cpl_jlcpcb.csv``, ``hat_top.png``, ``hat_bottom.png``, ``schematic/``
-(KiCad schematic sheets and their SVGs, whisker.pcb.schematic; with the routed board), and
-``hat_summary.json`` written last.
+(KiCad schematic sheets, their SVGs and a PDF, whisker.pcb.schematic; with the routed board), and
+``hat_summary.json`` written last (with the sha256 of every Gerber and drill file).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 import tempfile
@@ -50,15 +51,19 @@ def prepare(design: Design):
     return circuit, report, layout.place(circuit)
 
 
+#: the boards kept under hw/pcb/generated/ and the design overrides they are made from: ``make pcb`` (the
+#: default design, all files) and ``make hat-sizes`` (6 and 12 coils: summary, DRC report, top render;
+#: 12 coils need the PCA9685s, moved above the INA3221s' 0x40-0x43)
+SIZES = {"hat": (), "hat6": ("whiskers.count=6",),
+         "hat12": ("whiskers.count=12", 'wiring.expander="pca9685"', "wiring.pca9685_address=0x44")}
+
 #: the code that turns a placement spec into the routed board and its fabrication files
-BOARD_CODE = ("kicad.py", "kicad_job.py", "router.py", "fab.py")
+BOARD_CODE = ("kicad.py", "kicad_job.py", "router.py", "maze.py", "fab.py")
 
 
 def input_digest(spec: dict) -> str:
     """sha256 of what the routed board depends on: the placement spec and the code that routes and
     exports it. ``hat_summary.json`` keeps it, so a test sees a stale committed board without routing."""
-    import hashlib
-
     h = hashlib.sha256(json.dumps(spec, sort_keys=True).encode())
     for name in BOARD_CODE:
         h.update(Path(__file__).with_name(name).read_bytes())
@@ -105,6 +110,9 @@ def build_hat(design: Design, out: str | Path, route: bool = True, log=print) ->
                 names += ["hat.kicad_pcb", "drc.json", *[f"gerbers/{n}" for n in g], "cpl_jlcpcb.csv",
                           "bom_jlcpcb.csv", "hat_top.png", "hat_bottom.png"]
                 summary["gerbers"] = g
+                # the files' sha256: a later run (or a board kept only as its summary) is compared byte for byte
+                summary["gerbers_sha256"] = {n: hashlib.sha256((tmp / "gerbers" / n).read_bytes()).hexdigest()
+                                             for n in g}
             finally:
                 if not kicad.KEEP_WORK:
                     shutil.rmtree(work, ignore_errors=True)

@@ -3,9 +3,10 @@
 Steps (``route_board``): placement spec (whisker.pcb.layout) -> pcbnew builds the board in the system
 python3 (``kicad_job.py``: KiCad's module lives there, not in the virtualenv) -> every GND/VM pad gets
 its via to its plane (``fanout``, checked against every pad and via for clearance) -> the copper of
-that board (pads as pcbnew shapes them) -> the signal nets routed by whisker.pcb.router (a deterministic
-A* maze router; the pure-Python ``freeroute`` port mis-scaled its session, ignored pre-placed copper and
-dropped the 0.65 mm-pitch nets) -> the board rebuilt with those tracks, zones filled ->
+that board (pads as pcbnew shapes them) -> the signal nets routed by whisker.pcb.router (deterministic
+negotiated-congestion routing over an A* maze search; the pure-Python ``freeroute`` port mis-scaled its
+session, ignored pre-placed copper and dropped the 0.65 mm-pitch nets) -> the board rebuilt with those
+tracks, zones filled ->
 ``kicad-cli pcb drc`` as the gate.
 """
 
@@ -248,7 +249,7 @@ def route_board(spec: dict, work: Path, log=print) -> dict:
     run_job("build", work, spec=spec_path, board=board0, dsn="")
     items = run_job("copper", work, board=board0)["items"]
     nets = sorted({it["net"] for it in items if it["kind"] == "pad" and it.get("net")} - set(spec["power_nets"]))
-    log(f"pcb: routing {len(nets)} signal nets (whisker.pcb.router, A* on a {router.STEP} mm grid)")
+    log(f"pcb: routing {len(nets)} signal nets (whisker.pcb.router: PathFinder, A* on a {router.STEP} mm grid)")
     try:
         r_tracks, r_vias = router.route(items, spec2, nets, log=log)
     except router.RouteFailed as err:

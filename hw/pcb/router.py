@@ -1,303 +1,118 @@
-"""A deterministic grid maze router (A*, two signal layers) for the HAT's signal nets.
+"""Negotiated-congestion routing of the HAT's signal nets (PathFinder) on the maze grid of whisker.pcb.maze.
 
-Why our own: the pure-Python ``freeroute`` port mis-scaled the session, ignored pre-placed copper and
-dropped the 0.65 mm-pitch nets; no Freerouting jar is on a registry this project installs from. The
-HAT is sparse (four layers, GND and VM on the inner planes, every plane pad already fanned out by
-``whisker.pcb.kicad.fanout``), so a Lee/A* maze router on a 0.1 mm grid routes it, and its clearance
-test is exact: every grid point a track centre may take is at least ``clearance + width/2 + MARGIN``
-from any other net's copper, measured with shapely on the polygons pcbnew reports (pads as their real
-shapes, the board edge, holes), so `kicad-cli pcb drc` is the check, not the definition.
+PathFinder (L. McMurchie and C. Ebeling, "PathFinder: a negotiation-based performance-driven router for
+FPGAs", FPGA '95): every net is routed on its own, allowed to use grid states that other nets' copper
+already claims, at a price. A state's price is ``(1 + h) * (1 + p * n)``: ``n`` is how many other nets
+claim it now (present congestion), ``p`` grows by ``PRES_GROWTH`` after every pass, and ``h`` (history)
+grows by ``HIST_STEP`` on every state found shared at the end of a pass. Nets that share a state are
+ripped up and routed again, until no state is shared; then every net keeps the clearance from every
+other by construction.
 
-Layers F.Cu and B.Cu; a layer change is a via (cost ``VIA_COST`` grid steps). Moves are the 8 grid
-neighbours; the margin covers the sagitta of a diagonal step between two checked grid points
-(0.1 * sqrt(2) / 2 = 0.071 mm: a point 0.33 mm from both ends of the step is >= 0.322 mm from the
-segment's middle). Nets are routed narrowest bounding box first, each as a tree grown from its first
-pad towards the nearest remaining pad; a net that fails moves to the front and everything is routed
-again (rip-up of the whole board, at most ``ROUNDS`` times). Same input, same output: no randomness,
-ties broken by insertion order.
+What a net claims is a keep-out, not its own cells: the states where another net's track centre (or via
+centre) would come closer than the clearance to this net's tracks and vias, i.e. its track centres and
+via centres dilated by ``clearance + both half widths + MARGIN`` (Euclidean distance transform of the
+grid). The dilation is of the path's grid points; a point ``SAG`` further covers the segment between
+two neighbouring points (its sagitta, 0.007 mm at these radii). Fixed copper (pads, fan-out tracks and
+vias, the board edge, holes) is a hard obstacle, exactly as whisker.pcb.maze measures it.
+
+Multi-pad nets grow as trees from their first pad towards the nearest remaining pad. Nets are routed in
+the order of their pad bounding box (smallest first), in every pass. Same input, same output: no
+randomness, ties broken in that order.
 """
 
 from __future__ import annotations
 
-import heapq
 import math
 
 import numpy as np
 
-STEP = 0.1          # mm, grid pitch
-MARGIN = 0.05       # mm, over the DRC clearance (the diagonal-step sagitta, rounding)
-VIA_COST = 8.0      # grid steps a via costs
-TOP_COST = 1.5      # a step on F.Cu costs this much more: long runs go to B.Cu, F.Cu stays free for pad escapes
-H_WEIGHT = 1.2      # weighted A* (paths within 20 % of the shortest, far fewer expansions)
-ROUNDS = 6
-MAX_EXPAND = 1_000_000
-LAYERS = ("F.Cu", "B.Cu")
-FREE, BLOCKED = -1, -2
-HOLE_EXTRA = 0.1    # mm more around unplated (no-net) holes: hole clearance 0.25 > copper clearance
+from . import maze
+from .maze import BLOCKED, HOLE_EXTRA, LAYERS, MARGIN, STEP, Grid, RouteFailed
 
+__all__ = ["route", "RouteFailed"]
 
-class RouteFailed(RuntimeError):
-    pass
-
-
-class Grid:
-    """Per layer, two owner maps: ``t`` for track centres, ``v`` for via centres. A cell holds FREE,
-    the one net whose copper is too near, or BLOCKED (two nets or the board edge)."""
-
-    def __init__(self, width, height, rules, outline):
-        import shapely
-
-        self.nx, self.ny = int(math.floor(width / STEP)) + 1, int(math.floor(height / STEP)) + 1
-        self.clr = rules["clearance"]
-        self.w = rules["track_width"]
-        self.via_d = rules["via_diameter"]
-        self.via_drill = rules["via_drill"]
-        self.t = [np.full((self.ny, self.nx), FREE, np.int32) for _ in LAYERS]
-        self.v = [np.full((self.ny, self.nx), FREE, np.int32) for _ in LAYERS]
-        xs, ys = np.meshgrid(np.arange(self.nx) * STEP, np.arange(self.ny) * STEP)
-        edge = rules["edge_clearance"]
-        inner_t = shapely.Polygon(outline).buffer(-(edge + self.w / 2 + MARGIN))
-        inner_v = shapely.Polygon(outline).buffer(-(edge + self.via_d / 2 + MARGIN))
-        ok_t = shapely.contains_xy(inner_t, xs, ys)
-        ok_v = shapely.contains_xy(inner_v, xs, ys)
-        for k in range(len(LAYERS)):
-            self.t[k][~ok_t] = BLOCKED
-            self.v[k][~ok_v] = BLOCKED
-
-    # reach of a piece of copper (distance from its geometry) that a track / via centre must keep
-    def reach(self, half_width_self: float) -> float:
-        return self.clr + half_width_self + MARGIN
-
-    def mark(self, layer: int, geom, net: int, r_track: float, r_via: float) -> None:
-        import shapely
-
-        for owner, r in ((self.t[layer], r_track), (self.v[layer], r_via)):
-            x0, y0, x1, y1 = geom.bounds
-            i0, i1 = max(0, int((x0 - r) / STEP)), min(self.nx - 1, int(math.ceil((x1 + r) / STEP)))
-            j0, j1 = max(0, int((y0 - r) / STEP)), min(self.ny - 1, int(math.ceil((y1 + r) / STEP)))
-            if i1 < i0 or j1 < j0:
-                continue
-            xs, ys = np.meshgrid(np.arange(i0, i1 + 1) * STEP, np.arange(j0, j1 + 1) * STEP)
-            d = shapely.distance(geom, shapely.points(xs, ys))
-            near = d < r
-            win = owner[j0:j1 + 1, i0:i1 + 1]
-            if net == BLOCKED:
-                win[near] = BLOCKED
-                continue
-            win[near & (win == FREE)] = net
-            win[near & (win != net) & (win != FREE)] = BLOCKED
-
-    def free(self, net: int, extra_half_width: float = 0.0):
-        """Flat uint8 arrays (layer-major) of the cells a track / via of `net` may take."""
-        from scipy import ndimage
-
-        t, v = [], []
-        for k in range(len(LAYERS)):
-            ft = (self.t[k] == FREE) | (self.t[k] == net)
-            fv = (self.v[k] == FREE) | (self.v[k] == net)
-            if extra_half_width > 0:   # a wider track: its centre keeps the extra half width more
-                n = int(math.ceil(extra_half_width / STEP))
-                yy, xx = np.mgrid[-n:n + 1, -n:n + 1]
-                disk = (xx ** 2 + yy ** 2) * STEP ** 2 <= extra_half_width ** 2
-                ft = ndimage.binary_erosion(ft, structure=disk, border_value=0)
-            t.append(ft.ravel())
-            v.append(fv.ravel())
-        return np.concatenate(t).astype(np.uint8), np.concatenate(v).astype(np.uint8)
-
-
-def _astar(grid: Grid, free_t, free_v, sources, targets, goal_pts):
-    """Cheapest path (list of flat states) from any source state to any target state, or None."""
-    n2 = 2 * grid.nx * grid.ny
-    tmask = np.zeros(n2, np.uint8)
-    tmask[np.fromiter(targets, np.int64)] = 1
-    goals = np.asarray(goal_pts, np.float64) / STEP
-    path = _astar_core(free_t, free_v, np.asarray(sources, np.int64), tmask, goals, grid.nx, grid.ny,
-                       VIA_COST, TOP_COST, H_WEIGHT, MAX_EXPAND)
-    return None if len(path) == 0 else [int(s) for s in path]
-
-
-def _astar_core_py(free_t, free_v, sources, tmask, goals, nx, ny, via_cost, top_cost, h_weight, max_expand):
-    """A* over (layer, y, x) states; numba compiles it (the pure-Python loop is ~50x slower, same result:
-    ties are broken by push order)."""
-    n = nx * ny
-    r2 = math.sqrt(2.0)
-    g = np.full(2 * n, np.inf)
-    parent = np.full(2 * n, -1, np.int64)
-    heap = [(0.0, 0, 0.0, 0)]
-    heap.pop()
-    cnt = 0
-    for s in sources:
-        if g[s] > 0.0:
-            g[s] = 0.0
-            rem = s % n
-            i, j = rem % nx, rem // nx
-            best = 1e18
-            for k in range(goals.shape[0]):
-                dx, dy = abs(i - goals[k, 0]), abs(j - goals[k, 1])
-                d = max(dx, dy) + (r2 - 1.0) * min(dx, dy)
-                best = min(best, d)
-            heapq.heappush(heap, (best * h_weight, cnt, 0.0, s))
-            cnt += 1
-    di_ = np.array([1, -1, 0, 0, 1, 1, -1, -1])
-    dj_ = np.array([0, 0, 1, -1, 1, -1, 1, -1])
-    dc_ = np.array([1.0, 1.0, 1.0, 1.0, r2, r2, r2, r2])
-    expanded = 0
-    found = -1
-    while len(heap) > 0:
-        _f, _c, gc, s = heapq.heappop(heap)
-        if gc > g[s]:
-            continue
-        if tmask[s]:
-            found = s
-            break
-        expanded += 1
-        if expanded > max_expand:
-            break
-        layer = s // n
-        rem = s - layer * n
-        j = rem // nx
-        i = rem - j * nx
-        mult = top_cost if layer == 0 else 1.0
-        for m in range(9):
-            if m < 8:
-                ii, jj = i + di_[m], j + dj_[m]
-                if ii < 0 or jj < 0 or ii >= nx or jj >= ny:
-                    continue
-                ns = layer * n + jj * nx + ii
-                if free_t[ns] == 0:
-                    continue
-                ng = gc + dc_[m] * mult
-            else:
-                ii, jj = i, j
-                ns = (1 - layer) * n + rem
-                if free_v[rem] == 0 or free_v[n + rem] == 0 or free_t[ns] == 0:
-                    continue
-                ng = gc + via_cost
-            if ng < g[ns]:
-                g[ns] = ng
-                parent[ns] = s
-                best = 1e18
-                for k in range(goals.shape[0]):
-                    dx, dy = abs(ii - goals[k, 0]), abs(jj - goals[k, 1])
-                    d = max(dx, dy) + (r2 - 1.0) * min(dx, dy)
-                    best = min(best, d)
-                heapq.heappush(heap, (ng + best * h_weight, cnt, ng, ns))
-                cnt += 1
-    if found < 0:
-        return np.zeros(0, np.int64)
-    out = [found]
-    s = parent[found]
-    while s != -1:
-        out.append(s)
-        s = parent[s]
-    return np.array(out[::-1], np.int64)
-
-
-try:
-    import numba
-
-    _astar_core = numba.njit(cache=True)(_astar_core_py)
-except ImportError:  # pragma: no cover - numba is in the hw extra
-    _astar_core = _astar_core_py
-
-
-def _segments(path, grid: Grid):
-    """Path states -> straight runs per layer [(layer, (x0, y0), (x1, y1))] and via points."""
-    n = grid.nx * grid.ny
-    pts = []
-    for s in path:
-        layer, rem = divmod(s, n)
-        j, i = divmod(rem, grid.nx)
-        pts.append((layer, i, j))
-    segs, vias = [], []
-    k = 0
-    while k < len(pts) - 1:
-        l0, i0, j0 = pts[k]
-        l1, i1, j1 = pts[k + 1]
-        if l1 != l0:
-            vias.append((i0, j0))
-            k += 1
-            continue
-        di, dj = i1 - i0, j1 - j0
-        m = k + 1
-        while m + 1 < len(pts) and pts[m + 1][0] == l0 and \
-                (pts[m + 1][1] - pts[m][1], pts[m + 1][2] - pts[m][2]) == (di, dj):
-            m += 1
-        segs.append((l0, (i0, j0), (pts[m][1], pts[m][2])))
-        k = m
-    return segs, vias
+PRES_START = 0.5     # present-congestion factor of the first pass
+PRES_GROWTH = 1.6    # its growth per pass
+HIST_STEP = 0.5      # history cost added to a shared state per pass
+PASSES = 60
+SAG = 0.01           # mm: a grid point's dilation also covers the segments to its neighbours
 
 
 def route(copper_items: list[dict], spec: dict, nets: list[str], log=print) -> tuple[list[dict], list[dict]]:
     """Tracks and vias (kicad_job spec entries) joining every pad of each net in `nets`.
 
     `copper_items`: the ``kicad_job copper`` dump of the unrouted board (pads, pre-placed tracks and
-    vias, with their nets). Raises RouteFailed naming the nets left unrouted.
+    vias, with their nets). Raises RouteFailed naming the nets left unrouted or still sharing room.
     """
-    order = sorted(nets, key=lambda nm: _bbox_size(copper_items, nm))
-    failed: list[str] = []
-    for rnd in range(ROUNDS):
-        order = failed + [nm for nm in order if nm not in failed]
-        tracks, vias, failed = _route_once(copper_items, spec, order)
-        log(f"pcb: routing round {rnd + 1}: {len(order) - len(failed)}/{len(order)} nets"
-            + (f", failed {failed}" if failed else ""))
-        if not failed:
-            return tracks, vias
-    raise RouteFailed(f"router left {len(failed)} net(s) unrouted: {', '.join(failed)}")
+    board = _Board(copper_items, spec, sorted(nets, key=lambda nm: _bbox_size(copper_items, nm)))
+    board.negotiate(log)
+    return board.emit()
 
 
-def _bbox_size(items, net):
-    pts = [it["at"] for it in items if it["kind"] == "pad" and it.get("net") == net]
-    if not pts:
-        return 0.0
-    xs, ys = [p[0] for p in pts], [p[1] for p in pts]
-    return (max(xs) - min(xs)) + (max(ys) - min(ys))
+class _Board:
+    def __init__(self, items, spec, order):
+        import shapely
 
-
-def _route_once(items, spec, order):
-    import shapely
-
-    b, r = spec["board"], spec["rules"]
-    outline = [(0, 0), (b["width"], 0), (b["width"], b["height"]), (0, b["height"])]
-    grid = Grid(b["width"], b["height"], r, outline)
-    net_id = {nm: k for k, nm in enumerate(sorted({it.get("net", "") for it in items} | set(order)))}
-    wide = spec.get("wide_nets", {})
-    half = grid.w / 2
-    r_tt, r_tv = grid.clr + half + MARGIN, grid.clr + grid.via_d / 2 + MARGIN  # from a geometry edge
-    pads: dict[str, list] = {}
-    for it in items:
-        if it["kind"] not in ("pad", "track", "via"):
-            continue
-        net = it.get("net", "")
-        nid = net_id[net] if net else BLOCKED
-        extra = HOLE_EXTRA if not net else 0.0
-        if it["kind"] == "pad":
-            polys = [shapely.Polygon(p) for p in it["polys"] if len(p) >= 3]
-            if not polys:
+        b, r = spec["board"], spec["rules"]
+        outline = [(0, 0), (b["width"], 0), (b["width"], b["height"]), (0, b["height"])]
+        self.grid = grid = Grid(b["width"], b["height"], r, outline)
+        self.n = grid.nx * grid.ny
+        net_id = {nm: k for k, nm in enumerate(sorted({it.get("net", "") for it in items} | set(order)))}
+        half = grid.w / 2
+        r_tt, r_tv = grid.clr + half + MARGIN, grid.clr + grid.via_d / 2 + MARGIN  # from a geometry edge
+        pads: dict[str, list] = {}
+        for it in items:
+            if it["kind"] not in ("pad", "track", "via"):
                 continue
-            geom = shapely.union_all(polys)
-            if it["layer"] in LAYERS:
-                grid.mark(LAYERS.index(it["layer"]), geom, nid, r_tt + extra, r_tv + extra)
-                if net:
-                    pads.setdefault(net, []).append((it, geom, LAYERS.index(it["layer"])))
-        elif it["kind"] == "track":
-            if it["layer"] in LAYERS:
-                geom = shapely.LineString([it["start"], it["end"]]).buffer(it["width"] / 2)
-                grid.mark(LAYERS.index(it["layer"]), geom, nid, r_tt, r_tv)
-        else:
-            geom = shapely.Point(it["at"]).buffer(it["radius"])
-            for k in range(len(LAYERS)):
-                grid.mark(k, geom, nid, r_tt, r_tv)
-    n = grid.nx * grid.ny
-    tracks, vias, failed = [], [], []
-    for net in order:
-        nid = net_id[net]
-        width = max(grid.w, round(wide.get(net, grid.w), 2))
-        free_t, free_v = grid.free(nid, width / 2 - half)
-        # the cells inside each pad (by pad id, all its layers)
+            net = it.get("net", "")
+            nid = net_id[net] if net else BLOCKED
+            extra = HOLE_EXTRA if not net else 0.0
+            if it["kind"] == "pad":
+                polys = [shapely.Polygon(p) for p in it["polys"] if len(p) >= 3]
+                if not polys:
+                    continue
+                geom = shapely.union_all(polys)
+                if it["layer"] in LAYERS:
+                    grid.mark(LAYERS.index(it["layer"]), geom, nid, r_tt + extra, r_tv + extra)
+                    if net:
+                        pads.setdefault(net, []).append((it, geom, LAYERS.index(it["layer"])))
+            elif it["kind"] == "track":
+                if it["layer"] in LAYERS:
+                    geom = shapely.LineString([it["start"], it["end"]]).buffer(it["width"] / 2)
+                    grid.mark(LAYERS.index(it["layer"]), geom, nid, r_tt, r_tv)
+            else:
+                geom = shapely.Point(it["at"]).buffer(it["radius"])
+                for k in range(len(LAYERS)):
+                    grid.mark(k, geom, nid, r_tt, r_tv)
+        wide = spec.get("wide_nets", {})
+        self.nets = {}
+        self.unroutable = []
+        for net in order:
+            width = max(grid.w, round(wide.get(net, grid.w), 2))
+            free_t, free_v = grid.free(net_id[net], width / 2 - half)
+            groups, centres = self._pad_cells(pads.get(net, []), free_t)
+            ids = sorted(groups, key=_pad_key)
+            if len(ids) < 2:
+                continue
+            if any(not groups[p] for p in ids):
+                self.unroutable.append(net)
+                continue
+            self.nets[net] = {"width": width, "free": (free_t, free_v), "groups": groups, "centres": centres,
+                              "ids": ids, "keep": self._radii(width)}
+        self.occ_t = np.zeros(2 * self.n, np.int32)   # other nets' keep-outs for a track centre
+        self.occ_v = np.zeros(2 * self.n, np.int32)   # ... for a via centre
+        self.hist_t = np.zeros(2 * self.n)
+        self.hist_v = np.zeros(2 * self.n)
+        self.routes: dict[str, dict] = {}
+
+    def _pad_cells(self, pads, free_t):
+        """The grid states inside each pad (by pad id, all its layers) and the pads' centres."""
+        import shapely
+
+        grid, n = self.grid, self.n
         groups: dict[str, set] = {}
         centres: dict[str, tuple] = {}
-        for it, geom, layer in pads.get(net, []):
+        for it, geom, layer in pads:
             inner = geom.buffer(-0.02)
             x0, y0, x1, y1 = inner.bounds
             i0, i1 = int(math.ceil(x0 / STEP)), int(math.floor(x1 / STEP))
@@ -312,49 +127,184 @@ def _route_once(items, spec, order):
                         cells.add(s)
             groups.setdefault(it["id"], set()).update(cells)
             centres[it["id"]] = tuple(it["at"])
-        ids = sorted(groups, key=_pad_key)
-        if len(ids) < 2:
-            continue
-        if any(not groups[p] for p in ids):
-            failed.append(net)
-            continue
+        return groups, centres
+
+    def _radii(self, width):
+        """Keep-out radii (mm) of a net of track `width`: (track->track centre, track->via centre,
+        via->track centre, via->via centre); the other net's track is the default width."""
+        g = self.grid
+        return (g.clr + width / 2 + g.w / 2 + MARGIN + SAG, g.clr + width / 2 + g.via_d / 2 + MARGIN + SAG,
+                g.clr + g.via_d / 2 + g.w / 2 + MARGIN + SAG, g.clr + g.via_d + MARGIN + SAG)
+
+    # ---- claims ----------------------------------------------------------------------------------
+
+    def _keepout(self, net, states, vias):
+        """Flat states (track centres, via centres) that the copper of `net`'s route keeps other nets from."""
+        from scipy import ndimage
+
+        g, n = self.grid, self.n
+        r_tt, r_tv, r_vt, r_vv = self.nets[net]["keep"]
+        reach = int(math.ceil(max(r_tt, r_tv, r_vt, r_vv) / STEP)) + 1
+        st = np.asarray(states, np.int64)
+        layer, rem = st // n, st % n
+        jj, ii = rem // g.nx, rem % g.nx
+        vi = np.asarray([c % g.nx for c in vias], np.int64)
+        vj = np.asarray([c // g.nx for c in vias], np.int64)
+        i0, i1 = max(0, ii.min() - reach), min(g.nx - 1, ii.max() + reach)
+        j0, j1 = max(0, jj.min() - reach), min(g.ny - 1, jj.max() + reach)
+        shape = (j1 - j0 + 1, i1 - i0 + 1)
+        wj, wi = np.mgrid[j0:j1 + 1, i0:i1 + 1]
+        base = wj * g.nx + wi
+
+        def dist(mask):
+            if not mask.any():
+                return np.full(shape, np.inf)
+            return ndimage.distance_transform_edt(~mask) * STEP
+
+        via_mask = np.zeros(shape, bool)
+        via_mask[vj - j0, vi - i0] = True
+        d_via = dist(via_mask)
+        keep_t, keep_v = [], []
+        for k in range(len(LAYERS)):
+            m = np.zeros(shape, bool)
+            sel = layer == k
+            m[jj[sel] - j0, ii[sel] - i0] = True
+            d_tr = dist(m)
+            keep_t.append(k * n + base[(d_tr < r_tt) | (d_via < r_vt)])
+            keep_v.append(k * n + base[(d_tr < r_tv) | (d_via < r_vv)])
+        return np.concatenate(keep_t), np.concatenate(keep_v)
+
+    def _claim(self, net, sign):
+        r = self.routes[net]
+        self.occ_t[r["keep_t"]] += sign
+        self.occ_v[r["keep_v"]] += sign
+
+    def _others(self, net):
+        """Other nets' claims as seen by `net`'s centre (a wider track keeps its extra half width more)."""
+        extra = self.nets[net]["width"] / 2 - self.grid.w / 2
+        if extra <= 0:
+            return self.occ_t, self.occ_v
+        from scipy import ndimage
+
+        k = int(math.ceil(extra / STEP))
+        yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
+        disk = (xx ** 2 + yy ** 2) * STEP ** 2 <= extra ** 2
+        foot = np.stack([np.zeros_like(disk), disk, np.zeros_like(disk)])
+        occ = ndimage.maximum_filter(self.occ_t.reshape(2, self.grid.ny, self.grid.nx), footprint=foot,
+                                     mode="constant", cval=0)
+        return occ.ravel(), self.occ_v
+
+    # ---- one net ---------------------------------------------------------------------------------
+
+    def _route_net(self, net, pres):
+        g, n, info = self.grid, self.n, self.nets[net]
+        occ_t, occ_v = self._others(net)
+        cost_t = (1.0 + self.hist_t) * (1.0 + pres * occ_t)
+        cost_v = (1.0 + self.hist_v) * (1.0 + pres * occ_v)
+        free_t, free_v = info["free"]
+        groups, ids = info["groups"], info["ids"]
         tree = set(groups[ids[0]])
         todo = ids[1:]
-        ok = True
-        new_geoms = []
+        paths, vias = [], []
         while todo:
             targets = set()
             for p in todo:
                 targets |= groups[p]
-            path = _astar(grid, free_t, free_v, sorted(tree), targets, [centres[p] for p in todo])
+            # start from tree states no other net claims, when there are any (a source costs nothing)
+            src = sorted(tree)
+            calm = [s for s in src if occ_t[s] == 0]
+            path = maze.astar(g, free_t, free_v, calm or src, targets, [info["centres"][p] for p in todo],
+                              cost_t, cost_v)
             if path is None:
-                ok = False
-                break
-            end = path[-1]
-            reached = next(p for p in todo if end in groups[p])
+                return None
+            reached = next(p for p in todo if path[-1] in groups[p])
             todo = [p for p in todo if p != reached]
             tree |= set(path) | groups[reached]
-            segs, vs = _segments(path, grid)
-            for layer, (i0, j0), (i1, j1) in segs:
-                a, bb = (round(i0 * STEP, 4), round(j0 * STEP, 4)), (round(i1 * STEP, 4), round(j1 * STEP, 4))
-                tracks.append({"start": list(a), "end": list(bb), "width": width, "layer": LAYERS[layer], "net": net})
-                new_geoms.append((layer, shapely.LineString([a, bb]) if a != bb else shapely.Point(a), width / 2))
-            for i, j in vs:
-                at = (round(i * STEP, 4), round(j * STEP, 4))
-                vias.append({"at": list(at), "diameter": grid.via_d, "drill": grid.via_drill, "net": net})
-                for k in range(len(LAYERS)):
-                    new_geoms.append((k, shapely.Point(at), grid.via_d / 2))
-                # a via's hole keeps other vias of its own net away too (hole-to-hole)
-                for k in range(len(LAYERS)):
-                    tree.add(k * n + j * grid.nx + i)
-        if not ok:
-            failed.append(net)
-            tracks = [t for t in tracks if t["net"] != net]
-            vias = [v for v in vias if v["net"] != net]
-            continue
-        for layer, geom, hw in new_geoms:
-            grid.mark(layer, geom, nid, r_tt + hw, grid.clr + hw + grid.via_d / 2 + MARGIN)
-    return tracks, vias, failed
+            for a, b in zip(path, path[1:]):
+                if a // n != b // n:
+                    vias.append(a % n)
+                    # a via's hole keeps other vias of its own net away too (hole-to-hole)
+                    tree.update(k * n + a % n for k in range(len(LAYERS)))
+            paths.append(path)
+        states = sorted({s for p in paths for s in p})
+        keep_t, keep_v = self._keepout(net, states, vias)
+        return {"paths": paths, "states": np.asarray(states, np.int64), "vias": vias, "keep_t": keep_t,
+                "keep_v": keep_v}
+
+    def _shared(self, net):
+        """(track states, via states) of `net`'s route that another net claims."""
+        r, n = self.routes[net], self.n
+        self._claim(net, -1)
+        occ_t, occ_v = self._others(net)
+        bad_t = r["states"][occ_t[r["states"]] > 0]
+        vs = np.asarray([k * n + c for c in r["vias"] for k in range(len(LAYERS))], np.int64)
+        bad_v = vs[occ_v[vs] > 0] if len(vs) else vs
+        self._claim(net, +1)
+        return bad_t, bad_v
+
+    # ---- negotiation -----------------------------------------------------------------------------
+
+    def negotiate(self, log):
+        if self.unroutable:
+            raise RouteFailed(f"router left {len(self.unroutable)} net(s) unrouted (no free cell in a pad): "
+                              f"{', '.join(self.unroutable)}")
+        pres = PRES_START
+        todo = list(self.nets)
+        for k in range(PASSES):
+            failed = []
+            for net in todo:
+                if net in self.routes:
+                    self._claim(net, -1)
+                    del self.routes[net]
+                r = self._route_net(net, pres)
+                if r is None:
+                    failed.append(net)
+                    continue
+                self.routes[net] = r
+                self._claim(net, +1)
+            if failed:
+                raise RouteFailed(f"router left {len(failed)} net(s) unrouted (no path): {', '.join(failed)}")
+            shared = {}
+            for net in self.nets:
+                bad_t, bad_v = self._shared(net)
+                if len(bad_t) or len(bad_v):
+                    shared[net] = (bad_t, bad_v)
+            log(f"pcb: routing pass {k + 1}: {len(self.nets) - len(shared)}/{len(self.nets)} nets clear"
+                + (f", {len(shared)} sharing room" if shared else ""))
+            if not shared:
+                return
+            for bad_t, bad_v in shared.values():
+                self.hist_t[bad_t] += HIST_STEP
+                self.hist_v[bad_v] += HIST_STEP
+            pres *= PRES_GROWTH
+            todo = [net for net in self.nets if net in shared]
+        raise RouteFailed(f"router left {len(shared)} net(s) sharing room after {PASSES} passes: "
+                          f"{', '.join(shared)}")
+
+    def emit(self):
+        g = self.grid
+        tracks, vias = [], []
+        for net in self.nets:
+            r = self.routes[net]
+            width = self.nets[net]["width"]
+            for path in r["paths"]:
+                segs, vs = maze.segments(path, g)
+                for layer, (i0, j0), (i1, j1) in segs:
+                    a = [round(i0 * STEP, 4), round(j0 * STEP, 4)]
+                    b = [round(i1 * STEP, 4), round(j1 * STEP, 4)]
+                    tracks.append({"start": a, "end": b, "width": width, "layer": LAYERS[layer], "net": net})
+                for i, j in vs:
+                    vias.append({"at": [round(i * STEP, 4), round(j * STEP, 4)], "diameter": g.via_d,
+                                 "drill": g.via_drill, "net": net})
+        return tracks, vias
+
+
+def _bbox_size(items, net):
+    pts = [it["at"] for it in items if it["kind"] == "pad" and it.get("net") == net]
+    if not pts:
+        return 0.0
+    xs, ys = [p[0] for p in pts], [p[1] for p in pts]
+    return (max(xs) - min(xs)) + (max(ys) - min(ys))
 
 
 def _pad_key(pid: str):
