@@ -9,7 +9,8 @@ the previous files stay.
 
 Files: ``hat.net`` (SKiDL netlist), ``hat_erc.txt``, ``placement.json`` (the spec pcbnew builds from),
 ``hat.kicad_pcb`` (routed), ``drc.json`` (counts), ``gerbers/`` (Gerbers + Excellon, date lines
-dropped), ``bom_jlcpcb.csv``, ``cpl_jlcpcb.csv``, ``hat_top.png``, ``hat_bottom.png``, and
+dropped), ``bom_jlcpcb.csv``, ``cpl_jlcpcb.csv``, ``hat_top.png``, ``hat_bottom.png``, ``schematic/``
+(KiCad schematic sheets, their SVGs and a PDF, whisker.pcb.schematic; with the routed board), and
 ``hat_summary.json`` written last (with the sha256 of every Gerber and drill file).
 """
 
@@ -24,7 +25,7 @@ from pathlib import Path
 from whisker.design import Design, apply_overrides, design_from_dict
 from whisker.files import atomic_write_json, atomic_write_text, publish, staging_dir
 
-from . import fab, hat, kicad, layout
+from . import fab, hat, kicad, layout, schematic
 from .build import erc_text
 from .netlist import netlist_text
 
@@ -86,6 +87,9 @@ def build_hat(design: Design, out: str | Path, route: bool = True, log=print) ->
         if route:
             work = Path(tempfile.mkdtemp(prefix="whisker-hat-"))
             try:
+                log("pcb: schematic (schematizer, kicad-cli sch export svg, sch erc)")
+                summary["schematic"] = schematic.draw(circuit, tmp / "schematic")
+                names += [f"schematic/{n}" for n in summary["schematic"]["files"]]
                 res = kicad.route_board(spec, work, log=log)
                 drc = res["drc"]
                 summary["drc"] = drc
@@ -136,5 +140,7 @@ def build_hat(design: Design, out: str | Path, route: bool = True, log=print) ->
             finally:
                 shutil.rmtree(work, ignore_errors=True)
         atomic_write_json(tmp / "hat_summary.json", summary)
-        publish(tmp, out, [*names, "hat_summary.json"])
+        # sheets of a previous build with more bridges must not outlive it
+        stale = [f"schematic/{p.name}" for p in (out / "schematic").glob("*")] if route else []
+        publish(tmp, out, [*names, "hat_summary.json"], stale=stale)
     return summary
