@@ -17,12 +17,12 @@ pcb: $(BIN)/.installed ## driver pin map, pinout, wiring diagram, KiCad netlist;
 	$(BIN)/whisker hw pcb $(DESIGN_ARGS) --out $(PCB_OUT)
 	$(BIN)/whisker hw hat $(DESIGN_ARGS) --out $(PCB_OUT)/hat $(HAT_ROUTE)
 
-# The driver HAT (docs/wiring.md): routed board, Gerbers, drill, JLCPCB BOM/CPL, renders -> hw/pcb/generated/hat/.
+# The driver HAT (docs/wiring.md): routed board, Gerbers, drill, JLCPCB BOM/CPL, renders, schematic -> hw/pcb/generated/hat/.
 # Needs KiCad 9 (scripts/system-deps installs it); HAT_ROUTE=--no-route for circuit, ERC and placement only.
 HAT_OUT ?= $(PCB_OUT)/hat
 HAT_ROUTE ?=
 .PHONY: hat hat-sizes bench-hat
-hat: $(BIN)/.installed ## driver HAT: routed KiCad board, DRC gate, Gerbers/drill/BOM/CPL (HAT_OUT=..., HAT_ROUTE=--no-route)
+hat: $(BIN)/.installed ## driver HAT: routed KiCad board, DRC gate, Gerbers/drill/BOM/CPL, schematic SVG/PDF (HAT_OUT=..., HAT_ROUTE=--no-route)
 	$(BIN)/whisker hw hat $(DESIGN_ARGS) --out $(HAT_OUT) $(HAT_ROUTE)
 
 # The HAT for 6 and for 12 coils (12 needs the PCA9685s, above the INA3221s' 0x40-0x43), routed and

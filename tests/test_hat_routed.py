@@ -100,9 +100,10 @@ def test_router_negotiates_two_crossing_nets_apart():
         return {"kind": "pad", "id": pid, "layer": "F.Cu", "net": net, "at": [x, y],
                 "polys": [[[x - 0.4, y - 0.4], [x + 0.4, y - 0.4], [x + 0.4, y + 0.4], [x - 0.4, y + 0.4]]]}
 
-    items = [pad("A:1", "S", 1.0, 3.0), pad("B:1", "S", 9.0, 3.0), pad("C:1", "T", 5.0, 0.8), pad("D:1", "T", 5.0, 5.2)]
+    # long enough runs that B.Cu (vias beside the SMD pads, at F.Cu's extra cost saved) pays for both nets
+    items = [pad("A:1", "S", 1.0, 5.0), pad("B:1", "S", 9.0, 5.0), pad("C:1", "T", 5.0, 0.8), pad("D:1", "T", 5.0, 9.2)]
     rules = {"clearance": 0.2, "track_width": 0.2, "via_diameter": 0.45, "via_drill": 0.2, "edge_clearance": 0.2}
-    spec = {"board": {"width": 10.0, "height": 6.0}, "rules": rules}
+    spec = {"board": {"width": 10.0, "height": 10.0}, "rules": rules}
     log: list[str] = []
     tracks, vias = router.route(items, spec, ["S", "T"], log=log.append)
     assert "sharing room" in log[0] and log[-1].endswith("2/2 nets clear"), log

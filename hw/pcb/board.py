@@ -4,11 +4,13 @@ hw/pcb/generated/hat/).
 Without KiCad the circuit, its ERC and the placement spec are still written (``route=False``), and
 :func:`build_hat` raises :class:`whisker.pcb.kicad.KicadMissing` with one line naming what to install
 before touching the output folder. A routed board that fails the DRC gate (any error or unconnected
-item) raises :class:`BoardFailed`; the previous files stay.
+item) or that has a via on an SMD pad (whisker.pcb.copper.vias_on_smd_pads) raises :class:`BoardFailed`;
+the previous files stay.
 
 Files: ``hat.net`` (SKiDL netlist), ``hat_erc.txt``, ``placement.json`` (the spec pcbnew builds from),
 ``hat.kicad_pcb`` (routed), ``drc.json`` (counts), ``gerbers/`` (Gerbers + Excellon, date lines
-dropped), ``bom_jlcpcb.csv``, ``cpl_jlcpcb.csv``, ``hat_top.png``, ``hat_bottom.png``, and
+dropped), ``bom_jlcpcb.csv``, ``cpl_jlcpcb.csv``, ``hat_top.png``, ``hat_bottom.png``, ``schematic/``
+(KiCad schematic sheets, their SVGs and a PDF, whisker.pcb.schematic; with the routed board), and
 ``hat_summary.json`` written last (with the sha256 of every Gerber and drill file).
 """
 
@@ -23,7 +25,7 @@ from pathlib import Path
 from whisker.design import Design, apply_overrides, design_from_dict
 from whisker.files import atomic_write_json, atomic_write_text, publish, staging_dir
 
-from . import fab, hat, kicad, layout
+from . import fab, hat, kicad, layout, schematic
 from .build import erc_text
 from .netlist import netlist_text
 
@@ -85,15 +87,22 @@ def build_hat(design: Design, out: str | Path, route: bool = True, log=print) ->
         if route:
             work = Path(tempfile.mkdtemp(prefix="whisker-hat-"))
             try:
+                log("pcb: schematic (schematizer, kicad-cli sch export svg, sch erc)")
+                summary["schematic"] = schematic.draw(circuit, tmp / "schematic")
+                names += [f"schematic/{n}" for n in summary["schematic"]["files"]]
                 res = kicad.route_board(spec, work, log=log)
                 drc = res["drc"]
                 summary["drc"] = drc
                 summary["input_digest"] = input_digest(spec)
                 summary["routed"] = {k: res[k] for k in ("fanout_vias", "routed_tracks", "routed_vias")}
+                summary["vias_on_smd_pads"] = len(res["vias_on_smd_pads"])
                 if drc["errors"] or drc["unconnected"]:
                     raise kicad.BoardFailed(
                         f"DRC: {drc['errors']} error(s) {drc['error_types']}, {drc['unconnected']} unconnected "
                         f"({drc['first_error'] or drc['first_unconnected']}); work files in {work}")
+                if res["vias_on_smd_pads"]:
+                    raise kicad.BoardFailed(f"{len(res['vias_on_smd_pads'])} via(s) on SMD pads (via-in-pad): "
+                                            f"{res['vias_on_smd_pads'][0]}; work files in {work}")
                 shutil.copy(res["board"], tmp / "hat.kicad_pcb")
                 atomic_write_json(tmp / "drc.json", drc)
                 log("pcb: gerbers, drill, BOM, CPL, renders")
@@ -131,5 +140,7 @@ def build_hat(design: Design, out: str | Path, route: bool = True, log=print) ->
             finally:
                 shutil.rmtree(work, ignore_errors=True)
         atomic_write_json(tmp / "hat_summary.json", summary)
-        publish(tmp, out, [*names, "hat_summary.json"])
+        # sheets of a previous build with more bridges must not outlive it
+        stale = [f"schematic/{p.name}" for p in (out / "schematic").glob("*")] if route else []
+        publish(tmp, out, [*names, "hat_summary.json"], stale=stale)
     return summary

@@ -111,3 +111,33 @@ def check_pin_map(design, cl: dict[str, int]) -> list[str]:
                           (src_f, f"coil {ch.whisker} forward"), (src_b, f"coil {ch.whisker} backward")):
             unique(pad, what)
     return problems
+
+
+def vias_on_smd_pads(items: list[dict]) -> list[str]:
+    """One line per via whose copper (a disc of its radius) overlaps an SMD pad of any net, its own too.
+
+    An unfilled via in or touching an SMD pad wicks the solder away from the joint during reflow; fabs
+    take it only as the paid "via-in-pad, filled and capped" option. The router and the plane fan-out
+    keep vias beside the pads (whisker.pcb.maze.Grid.mark, smd=True; whisker.pcb.kicad.fanout); this is
+    the check on the board's copper. Through-hole pads may carry vias (their barrel is a hole anyway)."""
+    from shapely.geometry import Point, Polygon
+    from shapely.strtree import STRtree
+
+    pads = []
+    for it in items:
+        if it["kind"] == "pad" and not it.get("through") and it["layer"] in ("F.Cu", "B.Cu"):
+            polys = [Polygon(p) for p in it["polys"] if len(p) >= 3]
+            if polys:
+                pads.append((it, polys))
+    shapes = [g for _it, polys in pads for g in polys]
+    owner = [it for it, polys in pads for _g in polys]
+    tree = STRtree(shapes)
+    out = []
+    for via in (it for it in items if it["kind"] == "via"):
+        c, r = Point(via["at"]), via["radius"]
+        hit = sorted({owner[int(k)]["id"] for k in tree.query(c, predicate="dwithin", distance=r)
+                      if shapes[int(k)].distance(c) < r})
+        if hit:
+            out.append(f"via at ({via['at'][0]:.3f}, {via['at'][1]:.3f}) mm, net {via.get('net') or '-'}, "
+                       f"on SMD pad(s) {', '.join(hit)}")
+    return out

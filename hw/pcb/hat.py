@@ -84,7 +84,7 @@ class Hat:
     channels: list[CoilChannel]
     parts: dict = field(default_factory=dict)      # ref -> SKiDL Part
     nets: dict = field(default_factory=dict)       # name -> SKiDL Net
-    info: dict = field(default_factory=dict)       # ref -> {"footprint", "value", "kind", "mpn"}
+    info: dict = field(default_factory=dict)       # ref -> {"footprint", "value", "kind", "mpn", "block"}
 
 
 def bridges_needed(n: int) -> int:
@@ -149,6 +149,7 @@ def _build(sk, design: Design) -> Hat:
     ckt.track_src = False
     hat = Hat(design, ckt, channels)
     P, N = hat.parts, hat.nets
+    block = ["pi"]   # the functional block the next parts belong to (the schematic's sheets)
 
     def net(name):
         if name not in N:
@@ -160,7 +161,7 @@ def _build(sk, design: Design) -> Hat:
                     footprint=FP[fp], pins=[sk.Pin(num=k, name=nm, func=f) for k, nm, f in pins], circuit=ckt,
                     tag=ref, description=desc)
         P[ref] = p
-        hat.info[ref] = {"footprint": FP[fp], "value": value, "kind": kind, "mpn": mpn}
+        hat.info[ref] = {"footprint": FP[fp], "value": value, "kind": kind, "mpn": mpn, "block": block[0]}
         return p
 
     def two(ref, value, fp, kind, mpn="", a="1", b="2"):
@@ -211,6 +212,7 @@ def _build(sk, design: Design) -> Hat:
     scl += j1[HEADER_PIN[3]]
 
     # --- supply: terminal, fuse, reverse-polarity P-FET, bulk -------------------------------------
+    block[0] = "supply"
     j2 = part("J2", "Supply", f"{design.driver.supply_voltage:g} V in", "supply",
               [(1, "+", T.PWROUT), (2, "GND", T.PWROUT)], "connector", "Phoenix MKDS 1,5/2-5,08")
     fuse = fuse_rating_A(design)
@@ -236,6 +238,7 @@ def _build(sk, design: Design) -> Hat:
     rs = coil_board.sense_resistance_ohm(design)
     bridges = []
     for k in range(bridges_needed(n)):
+        block[0] = f"bridge{k + 1}"
         u = part(f"U{k + 1}", "DRV8833", "DRV8833PWP", "drv8833",
                  [(num, nm, {"AOUT1": T.OUTPUT, "AOUT2": T.OUTPUT, "BOUT1": T.OUTPUT, "BOUT2": T.OUTPUT,
                              "VM": T.PWRIN, "GND": T.PWRIN, "PAD": T.PWRIN, "nSLEEP": T.INPUT,
@@ -257,6 +260,7 @@ def _build(sk, design: Design) -> Hat:
 
     # --- monitors --------------------------------------------------------------------------------
     monitors = []
+    block[0] = "monitors"
     for m in range(monitors_needed(n, design)):
         u = part(f"U{11 + m}", "INA3221", "INA3221AIRGVR", "ina3221",
                  [(num, nm, {"GND": T.PWRIN, "EP": T.PWRIN, "VS": T.PWRIN, "SDA": T.BIDIR, "SCL": T.INPUT,
@@ -274,6 +278,7 @@ def _build(sk, design: Design) -> Hat:
 
     # --- expander --------------------------------------------------------------------------------
     expanders = []
+    block[0] = "expander"
     if any(ch.bus == "pca9685" for ch in channels):
         addr0 = design.wiring.pca9685_address
         for k in range(expander_boards_needed(n)):
@@ -292,6 +297,7 @@ def _build(sk, design: Design) -> Hat:
             cap("+3V3", "GND", "100nF", "c0603")
 
     # --- the ID EEPROM ---------------------------------------------------------------------------
+    block[0] = "pi"
     e = part("U31", "EEPROM", "CAT24C32", "eeprom",
              [(num, nm, {"GND": T.PWRIN, "VCC": T.PWRIN, "SDA": T.BIDIR}.get(nm, T.INPUT))
               for num, nm in EEPROM_PINS.items()], "eeprom", "onsemi CAT24C32WI-GT3", "HAT ID EEPROM")
@@ -322,6 +328,7 @@ def _build(sk, design: Design) -> Hat:
         u = bridges[ch.module]
         fwd, bwd, sense, (out1, out2) = DRV8833_CHANNEL[ch.channel]
         i = ch.whisker
+        block[0] = f"bridge{ch.module + 1}"
         if ch.bus == "gpio":
             src_f, src_b = j1[HEADER_PIN[ch.forward]], j1[HEADER_PIN[ch.backward]]
         else:

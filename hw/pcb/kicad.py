@@ -22,7 +22,7 @@ from pathlib import Path
 
 from whisker.errors import EnvironmentFault
 
-from . import router
+from . import copper, router
 
 JOB = Path(__file__).with_name("kicad_job.py")
 SYSTEM_PYTHON = os.environ.get("WHISKER_KICAD_PYTHON", "/usr/bin/python3")
@@ -93,7 +93,8 @@ def fanout(spec: dict, pads: list[dict]) -> tuple[list[dict], list[dict]]:
 
     A pad whose footprint has a through-hole (thermal-via) pad on the same net is joined to that pad
     by a short track inward; any other pad gets a via outward (away from its footprint's centre),
-    moved further out or sideways until it clears every other pad, track and via by the clearance.
+    moved further out or sideways until it clears every other pad, track and via by the clearance,
+    and every SMD pad (its own net's too: no via in or at a pad) by the clearance.
     """
     from shapely.geometry import LineString, Point, box
 
@@ -111,6 +112,13 @@ def fanout(spec: dict, pads: list[dict]) -> tuple[list[dict], list[dict]]:
             if onet != net and geom.distance(og) < clr:
                 return False
         return True
+
+    # no via copper on or near an SMD pad of any net, its own included (via-in-pad wicks the solder away
+    # from the joint): the same rule as the router's grid (whisker.pcb.maze.Grid.mark, smd=True)
+    smd_boxes = [box(*p["bbox"]) for p in pads if not p["through"]]
+
+    def off_smd(via):
+        return all(via.distance(b) >= clr for b in smd_boxes)
 
     through_by, on_plane = {}, {}
     for p in pads:
@@ -184,7 +192,7 @@ def fanout(spec: dict, pads: list[dict]) -> tuple[list[dict], list[dict]]:
                 via = Point(vx, vy).buffer(via_d / 2)
                 path = [(px, py), (px + axis[0] * d, py + axis[1] * d), (vx, vy)]
                 line = LineString(path).buffer(w / 2)
-                if not (clear(p["net"], via) and clear(p["net"], line)):
+                if not (clear(p["net"], via) and clear(p["net"], line) and off_smd(via)):
                     continue
                 bx0, by0, bx1, by1 = via.bounds
                 if bx0 < 0.6 or by0 < 0.6 or bx1 > spec["board"]["width"] - 0.6 or by1 > spec["board"]["height"] - 0.6:
@@ -261,8 +269,10 @@ def route_board(spec: dict, work: Path, log=print) -> dict:
     run_job("fill", work, board=work / "routed_unfilled.kicad_pcb", out=routed)
     log("pcb: kicad-cli pcb drc")
     report = drc(routed, work / "drc.json")
+    # KiCad's DRC allows a via in a pad of its own net: the no-via-in-SMD-pad rule is checked on the copper
+    on_pads = copper.vias_on_smd_pads(run_job("copper", work, board=routed)["items"])
     return {"board": routed, "drc": report, "fanout_vias": len(vias), "routed_tracks": len(r_tracks),
-            "routed_vias": len(r_vias)}
+            "routed_vias": len(r_vias), "vias_on_smd_pads": on_pads}
 
 
 if __name__ == "__main__":  # pragma: no cover - manual runs

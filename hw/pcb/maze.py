@@ -8,6 +8,10 @@ exact: every grid point a track centre may take is at least ``clearance + width/
 other net's fixed copper, measured with shapely on the polygons pcbnew reports (pads as their real
 shapes, the board edge, holes), so `kicad-cli pcb drc` is the check, not the definition.
 
+No via touches an SMD pad, not even one of its own net (``Grid.mark(smd=True)``: via-in-pad wicks the
+solder from the joint); vias of a net sit beside its SMD pads, a short track away (a fan-out), at the
+same clearance as from other nets' copper. Through-hole pads take their own net's vias and tracks.
+
 Layers F.Cu and B.Cu; a layer change is a via (cost ``VIA_COST`` grid steps). Moves are the 8 grid
 neighbours; the margin covers the sagitta of a diagonal step between two checked grid points
 (0.1 * sqrt(2) / 2 = 0.071 mm: a point 0.33 mm from both ends of the step is >= 0.322 mm from the
@@ -66,7 +70,12 @@ class Grid:
     def reach(self, half_width_self: float) -> float:
         return self.clr + half_width_self + MARGIN
 
-    def mark(self, layer: int, geom, net: int, r_track: float, r_via: float) -> None:
+    def mark(self, layer: int, geom, net: int, r_track: float, r_via: float, smd: bool = False) -> None:
+        """Claim the cells within `r_track` / `r_via` of `geom` for `net` (BLOCKED: for every net).
+
+        ``smd``: `geom` is an SMD pad, and no via of any net, its own included, may come within `r_via`:
+        a via in (or touching) an SMD pad wicks the solder away from the joint during reflow (fabs take it
+        only as paid "via-in-pad, filled and capped"), so a via goes beside the pad with a short track."""
         import shapely
 
         for owner, r in ((self.t[layer], r_track), (self.v[layer], r_via)):
@@ -79,7 +88,7 @@ class Grid:
             d = shapely.distance(geom, shapely.points(xs, ys))
             near = d < r
             win = owner[j0:j1 + 1, i0:i1 + 1]
-            if net == BLOCKED:
+            if net == BLOCKED or (smd and owner is self.v[layer]):
                 win[near] = BLOCKED
                 continue
             win[near & (win == FREE)] = net

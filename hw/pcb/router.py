@@ -73,7 +73,8 @@ class _Board:
                     continue
                 geom = shapely.union_all(polys)
                 if it["layer"] in LAYERS:
-                    grid.mark(LAYERS.index(it["layer"]), geom, nid, r_tt + extra, r_tv + extra)
+                    grid.mark(LAYERS.index(it["layer"]), geom, nid, r_tt + extra, r_tv + extra,
+                              smd=not it.get("through", False))
                     if net:
                         pads.setdefault(net, []).append((it, geom, LAYERS.index(it["layer"])))
             elif it["kind"] == "track":

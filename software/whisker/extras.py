@@ -15,7 +15,7 @@ DIST = "whisker-array"
 MODULES = {
     "cad": ("cadquery", "OCP", "trimesh", "manifold3d", "rtree", "networkx"),
     "sim": ("mujoco",),
-    "hw": ("skidl", "kinparse"),
+    "hw": ("skidl", "kinparse", "schematizer"),
     "magnetics": ("magpylib",),
     "pi": ("lgpio", "smbus2"),
     "explore": ("dask", "distributed"),

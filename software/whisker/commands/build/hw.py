@@ -88,17 +88,20 @@ def pcb(design, out, no_diagram):
 @cli.command()
 @design_options
 @click.option("--out", type=click.Path(file_okay=False), default="hw/pcb/generated/hat", show_default=True,
-              help="Output folder for the HAT: netlist, ERC, placement, routed board, Gerbers, drill, BOM, CPL, renders.")
+              help="Output folder for the HAT: netlist, ERC, placement, routed board, Gerbers, drill, BOM, CPL, renders, "
+                   "schematic (schematic/: KiCad sheets + SVG).")
 @click.option("--no-route", is_flag=True, help="Circuit, ERC and placement only (no KiCad needed).")
 def hat(design, out, no_route):
     """The driver HAT for the design (driver.type is set to "HAT" for it): SKiDL circuit + ERC,
     parts placed by code on the 65 x 56.5 mm HAT outline, routed (whisker.pcb.router, a deterministic A* maze router), checked by
     `kicad-cli pcb drc` (0 errors, 0 unconnected), Gerbers/Excellon (dates stripped), JLCPCB BOM and
-    CPL, top/bottom renders. Needs KiCad 9 (kicad-cli, pcbnew) unless --no-route.
+    CPL, top/bottom renders, and the schematic (KiCad 9 sheets and their SVGs, one per block; KiCad's
+    netlist of it must equal the circuit's, `kicad-cli sch erc` 0 errors). Needs KiCad 9 (kicad-cli,
+    pcbnew, kicad-symbols) unless --no-route.
 
     Exit status 2 with one line for a design the HAT cannot carry (coil current above the bridge's
-    rating, more coils than its monitors address, unknown bridge) or without KiCad; 1 when ERC or DRC
-    fails. The output folder is replaced only by a complete, clean build.
+    rating, more coils than its monitors address, unknown bridge) or without KiCad; 1 when ERC, DRC or
+    the schematic's check fails. The output folder is replaced only by a complete, clean build.
     """
     from whisker.coil.driver import DriverError
     from whisker.drive.pins import PinMapError
