@@ -74,10 +74,11 @@ def test_off_paper_design_measures_as_its_ring(scaled_build):
 
 
 def test_the_feasible_edge_lies_on_the_stated_bound():
-    """For every count the smallest radius that builds is within one 1 mm step of the bound
+    """For a spread of counts (the ends of the range, the paper's 8 and counts between; `make docs-sweep`
+    builds every count) the smallest radius that builds is within one 1 mm step of the bound
     2 rho sin(pi/N) - D cos(pi/N) = c (docs/sweep.md); below it, the refusal names the coils."""
     d = default_design()
-    inside = [(n, math.ceil(sizing.crowding_bound_radius(d, n) + 1e-9)) for n in range(2, 17)]
+    inside = [(n, math.ceil(sizing.crowding_bound_radius(d, n) + 1e-9)) for n in (2, 3, 5, 8, 12, 16)]
     outside = [(n, r - 2) for n, r in inside if r - 2 >= 4]
     cells = {}
     for n, r in inside + outside:
