@@ -20,7 +20,10 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 CHILD = textwrap.dedent('''
-    import os, sys, time
+    import os, signal, sys, time
+    # Ctrl-C's default: a shell starts background jobs with SIGINT ignored, and Python then installs no
+    # KeyboardInterrupt handler, so a CI launched with `&` would test an ignored Ctrl-C
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     sys.path.insert(0, {tests!r})
     from gpiozero.pins.mock import MockFactory, MockPWMPin
     LOG = open(sys.argv[2], "a", buffering=1)
