@@ -19,7 +19,7 @@ STAMP = $(BIN)/python -m whisker.data.provenance stamp
 # every benchmark, each its own group docs-bench-NAME (the list is checked against benchmarks/bench_*.py
 # by tests/test_docs_current.py); bench_states runs in docs-states
 DOCS_BENCH ?= actuation bom cad classify coil compliant driver explore grip hat locate locate_noise magnetics membrane \
-	print ros sim thermal tolerance tracking
+	print ros sim subpixel thermal tolerance tracking
 DOCS_GROUPS = docs-states docs-closedloop docs-sim-grasp docs-sim-time docs-stiffness docs-lens docs-sim-figures docs-tracking \
 	docs-parts docs-assembly docs-guide docs-ros-frames docs-explore docs-sweep docs-fuzz $(addprefix docs-bench-,$(DOCS_BENCH))
 
@@ -42,6 +42,7 @@ DOCS_BENCH_FILES_membrane = membrane.md membrane.csv
 DOCS_BENCH_FILES_print = print.md print.csv
 DOCS_BENCH_FILES_ros = ros.md ros.csv states.md
 DOCS_BENCH_FILES_sim = sim.md sim.csv sim.png
+DOCS_BENCH_FILES_subpixel = subpixel.md subpixel.csv
 DOCS_BENCH_FILES_thermal = thermal.md thermal.csv thermal_protocol.png
 DOCS_BENCH_FILES_tolerance = tolerance.md tolerance_options.csv tolerance_sobol.csv
 DOCS_BENCH_FILES_tracking = tracking.md tracking.csv tracking.png

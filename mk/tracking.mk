@@ -3,10 +3,11 @@
 #   make track-demo                        track 100 synthetic frames, write CSV and an annotated video
 #   make track-real                        the authors' real frames (needs WHISKER_PEER_DATA)
 #   make bench-tracking                    only the tracking accuracy-vs-time benchmark
+#   make bench-subpixel                    gain of the sub-pixel trackers on small rendered steps (~3 min)
 SOURCE ?= synthetic:100
 TRACK_OUT ?= $(OUT)/tracking
 
-.PHONY: track track-demo track-real bench-tracking
+.PHONY: track track-demo track-real bench-tracking bench-subpixel
 
 track: $(BIN)/.installed ## track markers of SOURCE (picamera, camera index, video, folder) -> exports/tracking/tracks.csv
 	$(BIN)/whisker track $(DESIGN_ARGS) --source $(SOURCE) --out $(TRACK_OUT)/tracks.csv
@@ -23,3 +24,6 @@ track-real: $(BIN)/.installed ## the authors' actuated frame against their rest 
 
 bench-tracking: $(BIN)/.installed ## tracking methods: RMS error vs ms/frame at several noise levels
 	$(BIN)/python benchmarks/bench_tracking.py
+
+bench-subpixel: $(BIN)/.installed ## tracker gain (tracked / true step) on 0.005-0.5 px rendered steps -> benchmarks/results/subpixel.md
+	$(BIN)/python benchmarks/bench_subpixel.py

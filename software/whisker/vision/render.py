@@ -3,10 +3,17 @@
 `marker_pixels(design, xyz_mm)` projects marker centres through the design's camera (optionally a
 measured camera matrix and lens distortion); `render_frame(design, markers_px, ...)` draws what the
 camera sees: the purple mount and LED ring, a dark coil block under each marker (oriented
-radially), red coil wires, the red markers themselves (anti-aliased by exact supersampling, so
-their intensity-weighted centre is the given subpixel position), uneven light, Gaussian blur and
-Gaussian noise. Pixel centres are at integer coordinates (OpenCV's convention). Output: HxWx3 uint8
-BGR.
+radially), red coil wires, the red markers themselves, uneven light, Gaussian blur and Gaussian
+noise. Pixel centres are at integer coordinates (OpenCV's convention). Output: HxWx3 uint8 BGR.
+
+The markers are drawn in the order a camera forms them: the disc is blurred by the optics first and
+then integrated over each pixel (`_blurred_disc_alpha`: a 4x finer grid, blurred there, box-averaged
+into pixels). Supersampling the sharp disc into pixels and blurring the pixel image afterwards (the
+earlier renderer) bakes pixel-grid aliasing into the frame: the drawn marker's centre then wanders
+by up to +-0.005 px around the commanded one, in steps that depend on the subpixel phase, which is as
+large as the 0.02 px marker motion of a small whisking sweep (benchmarks/results/tracking.md,
+"Small steps"). The blur before sampling removes that aliasing (attenuation exp(-2 pi^2 sigma^2) at
+one cycle per pixel: 3e-6 for sigma 0.8 px).
 
 Effects it models (and so what tracking benchmarks on it can and cannot say): position, size and
 colour of markers; distractors of the real frames (purple mount, white LEDs, dark blocks, red
@@ -52,8 +59,8 @@ def marker_radius_px(design) -> float:
 def _disc_coverage(h: int, w: int, cx: float, cy: float, r: float, ss: int = 8):
     """(y0, x0, coverage patch) of a disc: fraction of each pixel inside it, by ss x ss supersampling.
 
-    The supersampling grid is symmetric within each pixel, so the coverage-weighted centroid of
-    the patch equals (cx, cy) to within ~1e-3 px for r >= 2 px.
+    The coverage-weighted centroid of the patch is off (cx, cy) by up to ~5e-3 px, depending on the
+    subpixel phase (pixel-grid aliasing of the sharp edge); blurred frames use `_blurred_disc_alpha`.
     """
     x0 = max(int(math.floor(cx - r - 1)), 0)
     x1 = min(int(math.ceil(cx + r + 1)) + 1, w)
@@ -67,6 +74,45 @@ def _disc_coverage(h: int, w: int, cx: float, cy: float, r: float, ss: int = 8):
     inside = (ys[:, None] ** 2 + xs[None, :] ** 2) <= r * r
     cov = inside.reshape(y1 - y0, ss, x1 - x0, ss).mean(axis=(1, 3))
     return y0, x0, cov
+
+
+def _chord_coverage(n: int, cx: float, cy: float, r: float, ss: int = 8) -> np.ndarray:
+    """(n, n) float32 coverage of a disc on an n x n grid of unit cells (centres at integers): each
+    cell's ss sub-rows cut the disc in an exact chord, whose overlap with the cell is exact in x."""
+    off = (np.arange(ss) + 0.5) / ss - 0.5
+    ys = (np.arange(n)[:, None] + off[None, :]).ravel() - cy
+    half = np.sqrt(np.maximum(r * r - ys * ys, 0.0))
+    left = np.arange(n) - 0.5 - cx
+    ov = np.minimum(left[None, :] + 1.0, half[:, None]) - np.maximum(left[None, :], -half[:, None])
+    return np.clip(ov, 0.0, None).reshape(n, ss, n).mean(axis=1).astype(np.float32)
+
+
+def _blurred_disc_alpha(h: int, w: int, cx: float, cy: float, r: float, blur_px: float, fine: int = 4):
+    """(y0, x0, alpha patch) of a disc of radius r px at (cx, cy), blurred by a Gaussian of sigma
+    `blur_px` px and then integrated over each pixel (what a camera's optics and pixels do).
+
+    Computed on a grid `fine` times finer than the pixels (chord-exact coverage per fine cell,
+    `_chord_coverage`), blurred there with cv2.GaussianBlur (sigma blur_px * fine) and box-averaged into pixels.
+    Aliasing of the fine grid is at `fine` cycles per px, where the blur's attenuation
+    exp(-2 pi^2 (sigma f)^2) is below 1e-40 for sigma >= 0.5 px.
+    """
+    import cv2
+
+    m = int(math.ceil(r + 1 + 4.0 * blur_px))   # patch half-size, px: the blur's tail fits
+    ix, iy = int(math.floor(cx)), int(math.floor(cy))
+    x0, x1 = max(ix - m, 0), min(ix + m + 2, w)
+    y0, y1 = max(iy - m, 0), min(iy + m + 2, h)
+    if x1 <= x0 or y1 <= y0:
+        return y0, x0, np.zeros((0, 0), np.float32)
+    # the fine grid spans the whole padded patch (also beyond the image border, then cropped)
+    px0, py0 = ix - m, iy - m
+    n = 2 * m + 2
+    fx, fy = (cx - px0 + 0.5) * fine - 0.5, (cy - py0 + 0.5) * fine - 0.5   # centre on the fine grid
+    # chord-exact coverage, once along rows and once along columns (averaged: no preferred axis)
+    full = 0.5 * (_chord_coverage(n * fine, fx, fy, r * fine) + _chord_coverage(n * fine, fy, fx, r * fine).T)
+    full = cv2.GaussianBlur(full, (0, 0), float(blur_px) * fine, borderType=cv2.BORDER_CONSTANT)
+    alpha = full.reshape(n, fine, n, fine).mean(axis=(1, 3))
+    return y0, x0, alpha[y0 - py0:y1 - py0, x0 - px0:x1 - px0]
 
 
 def _blend(img: np.ndarray, y0: int, x0: int, alpha: np.ndarray, bgr) -> None:
@@ -156,19 +202,31 @@ def render_frame(design, markers_px, *, seed: int = 0, noise_sigma: float = 0.0,
             if ys.size:
                 a = layers[name][ys, xs].astype(np.float32)[:, None] / 255.0
                 img[ys, xs] += a * (np.asarray(bgr, np.float32) - img[ys, xs])
-    for p in pts[shown]:
-        y0, x0, cov = _disc_coverage(h, w, p[0], p[1], r_m)
-        _blend(img, y0, x0, cov.astype(np.float32), marker_bgr)
+    if blur_px <= 0:   # a sharp image: the markers' pixel coverage, drawn before the light
+        for p in pts[shown]:
+            y0, x0, cov = _disc_coverage(h, w, p[0], p[1], r_m)
+            _blend(img, y0, x0, cov.astype(np.float32), marker_bgr)
+    gain = None
     if light_gradient or vignette:
         xs = (np.arange(w, dtype=np.float32) - (w - 1) / 2) / w
         ys = (np.arange(h, dtype=np.float32) - (h - 1) / 2) / w
         gain = 1.0 + light_gradient * (xs[None, :] + 0.5 * ys[:, None])
-        gain = gain * (1.0 - vignette * 2.0 * (xs[None, :] ** 2 + ys[:, None] ** 2))
-        img *= np.clip(gain, 0.05, None)[..., None]
+        gain = np.clip(gain * (1.0 - vignette * 2.0 * (xs[None, :] ** 2 + ys[:, None] ** 2)), 0.05, None)
+        img *= gain[..., None]
     if blur_px > 0:
         import cv2
 
         img = cv2.GaussianBlur(img, (0, 0), float(blur_px))
+        # markers: blurred before pixel sampling (module doc), over the blurred background; they sit
+        # on the uniform coil block, so compositing after the background's blur is the same image
+        bgr = np.asarray(marker_bgr, dtype=np.float32)
+        for p in pts[shown]:
+            y0, x0, a = _blurred_disc_alpha(h, w, p[0], p[1], r_m, float(blur_px))
+            if a.size == 0:
+                continue
+            col = bgr if gain is None else gain[y0:y0 + a.shape[0], x0:x0 + a.shape[1], None] * bgr
+            sub = img[y0:y0 + a.shape[0], x0:x0 + a.shape[1]]
+            sub += a[..., None] * (col - sub)
     if noise_sigma > 0:
         img += float(noise_sigma) * rng.standard_normal(img.shape, dtype=np.float32)
     return np.clip(np.rint(img), 0, 255).astype(np.uint8)

@@ -284,6 +284,7 @@ class Tracker:
             area = np.full(self.n, np.nan)
             idx = assign(det.xy, pos, 1.0)
             area[idx >= 0] = det.area[idx[idx >= 0]]
+            pos = self._zero_with_method(img, pos)
             track.append(pos)
             areas.append(area)
         if n_frames == 0:
@@ -303,6 +304,27 @@ class Tracker:
         self.baseline = _Baseline(base, self.to_output(base), area, n_frames)
         self._last = base.copy()
         return self.baseline
+
+    def _zero_with_method(self, image, pos):
+        """Rest positions located as `track` locates frames: the ``roi`` window centroid (and the
+        ``fit`` disc fit) started at the detector's positions. The detector's centroid (redness
+        R - max(G, B)) differs from the window's (2R - G - B) and the fit's by up to ~0.01 px, an
+        offset that would stay in every displacement (issue 31: ~1e-4 rad of absolute tilt)."""
+        if self.method not in ("roi", "fit"):
+            return pos
+        img, mask = self._prepare(image)
+        ok = np.all(np.isfinite(pos), axis=1)
+        if not ok.any():
+            return pos
+        out = pos.copy()
+        rpos, rok, _ = self.windows.roi(img, mask, pos[ok])
+        sub = pos[ok]
+        moved = rok & (np.hypot(*(rpos - sub).T) < 1.0)   # the window found the same marker
+        sub[moved] = rpos[moved]
+        if self.method == "fit":
+            sub[moved] = self.windows.refine(img, mask, sub[moved]) if moved.any() else sub[moved]
+        out[ok] = sub
+        return out
 
     def reset(self) -> None:
         """Forget the frame-to-frame state (the next frame is matched against the rest baseline)."""

@@ -187,10 +187,11 @@ def render_and_track(design, whisker: int, tilt_rad: np.ndarray, noise_sigma: fl
     """Render one frame per tilt (the other whiskers at rest), track it, return the tracked tilt (F, 2).
 
     ``zero_frames`` rest frames are tracked first the same way and their mean tilt is the zero: the
-    free whisker's rest recorded by the tracking method itself before the contact. The tracker's rest
-    calibration locates markers with its detector and the frames with the ``fit`` method, which differ
-    by ~1e-4 rad; the stick estimate does not see a constant offset, but the cone-edge estimate of a
-    sliding contact (whisker.sensing.contact_slip) reads the absolute tilt."""
+    free whisker's rest recorded by the tracking method itself before the contact, as a live sensor
+    would. The tracker's rest calibration now locates the markers with the tracking method too (it used
+    the detector's centroids, ~1e-4 rad off the ``fit`` frames); the zero frames also average out the
+    5-frame calibration's noise, which the cone-edge estimate of a sliding contact
+    (whisker.sensing.contact_slip) would read as absolute tilt."""
     from whisker.coil.kinematics import marker_positions_mm
     from whisker.vision.render import marker_pixels, render_frame
     from whisker.vision.tracking import Tracker
