@@ -222,11 +222,8 @@ def render_frame(design, markers_px, *, seed: int = 0, noise_sigma: float = 0.0,
         bgr = np.asarray(marker_bgr, dtype=np.float32)
         for p in pts[shown]:
             y0, x0, a = _blurred_disc_alpha(h, w, p[0], p[1], r_m, float(blur_px))
-            if a.size == 0:
-                continue
             col = bgr if gain is None else gain[y0:y0 + a.shape[0], x0:x0 + a.shape[1], None] * bgr
-            sub = img[y0:y0 + a.shape[0], x0:x0 + a.shape[1]]
-            sub += a[..., None] * (col - sub)
+            _blend(img, y0, x0, a, col)
     if noise_sigma > 0:
         img += float(noise_sigma) * rng.standard_normal(img.shape, dtype=np.float32)
     return np.clip(np.rint(img), 0, 255).astype(np.uint8)
